@@ -1,0 +1,81 @@
+"""What a finished run produced: the values that reports, figures and logs are made of."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from planner.grid import Cell
+
+
+@dataclass(frozen=True)
+class BtpRecord:
+    """One backtracking point: where, who found it, when, and who covered it."""
+
+    cell: Cell
+    detected_by: int
+    detected_at: int
+    covered_by: int | None = None
+    covered_at: int | None = None
+
+
+@dataclass(frozen=True)
+class AgentTrace:
+    """One agent's run. ``track[k]`` and ``battery_pct[k]`` are its cell and
+    battery after iteration ``k`` (index 0 is the start)."""
+
+    id: int
+    track: tuple[Cell, ...]
+    battery_pct: tuple[float, ...]
+    path_m: float
+    homing_m: float
+    charges: int
+    min_battery_pct: float
+    lost: bool = False
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """Everything a run reports. Map arrays are the planner's final belief
+    (``belief`` holds ``CellState`` values), never the ground truth."""
+
+    mission: str
+    shape: tuple[int, int]
+    cell_size_m: float
+    charger: Cell
+    reserve_pct: float
+    belief: np.ndarray
+    covered: np.ndarray
+    agents: tuple[AgentTrace, ...]
+    btps: tuple[BtpRecord, ...]
+    covered_per_iteration: tuple[int, ...]
+    iterations: int
+    free_cells: int
+    covered_cells: int
+    out_of_range_cells: int
+    safety_net_fires: int
+    wall_s: float
+    planner_s: float
+    extra: dict[str, float | int | str] = field(default_factory=dict)
+
+    @property
+    def complete(self) -> bool:
+        return self.covered_cells >= self.free_cells and not self.lost_agents
+
+    @property
+    def coverage_pct(self) -> float:
+        return 100.0 * self.covered_cells / self.free_cells if self.free_cells else 100.0
+
+    @property
+    def total_path_m(self) -> float:
+        return sum(a.path_m for a in self.agents)
+
+    @property
+    def makespan_m(self) -> float:
+        """The longest agent coverage path: the mission's length in metres driven."""
+        return max((a.path_m for a in self.agents), default=0.0)
+
+    @property
+    def lost_agents(self) -> int:
+        return sum(1 for a in self.agents if a.lost)
