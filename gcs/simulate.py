@@ -1,0 +1,195 @@
+"""Offline simulation: the planner against the ground-truth world, in lockstep iterations.
+
+An iteration gives every agent one decision (at most one move each), as the
+paper counts them. The planner only ever sees what the world's sensing
+answers at the cells its agents stand on; the truth stays in ``sitl_mock``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from gcs.mission import Mission
+from gcs.result import AgentTrace, BtpRecord, RunResult
+from planner.coordinator import ActionKind, AgentMode, Coordinator, EventKind, PlannerEvent
+from planner.grid import Cell, CellState
+from planner.settings import AgentSpec, PathPlannerKind, PlannerSettings
+from sitl_mock.lockstep import Body, LockstepWorld
+
+Progress = Callable[[int, int, int], None]
+"""Called after each iteration with (iteration, covered cells, free cells)."""
+
+
+@dataclass(frozen=True)
+class SimOptions:
+    seed: int = 0
+    max_iterations: int | None = None
+    #: Record a PlannerEvent log in the result (for the MCAP log and tests).
+    keep_events: bool = False
+
+
+def planner_settings(mission: Mission, seed: int = 0) -> PlannerSettings:
+    spec = mission.planner
+    return PlannerSettings(
+        cell_size_m=mission.cell_size_m,
+        reserve_pct=spec.reserve_pct,
+        charge_pct_per_step=spec.charge_pct_per_step,
+        charging_slots=spec.charging_slots,
+        path_planner=PathPlannerKind(spec.path_planner),
+        seed=seed,
+    )
+
+
+def prior_map(mission: Mission) -> object | None:
+    """The known map handed to the planner when the fleet takes the map as known."""
+    if not mission.fleet or any(v.sensing != "map" for v in mission.fleet):
+        return None
+    obstacle = mission.map.obstacle
+    return (obstacle * int(CellState.OBSTACLE) + (~obstacle) * int(CellState.FREE)).astype("int8")
+
+
+def simulate(
+    mission: Mission,
+    options: SimOptions | None = None,
+    progress: Progress | None = None,
+    events: list[tuple[int, PlannerEvent]] | None = None,
+) -> RunResult:
+    """Run the mission's fleet over its map until coverage is complete and all are home.
+
+    ``events``, if given, receives every planner event with its iteration.
+    """
+    options = options or SimOptions()
+    grid = mission.map
+    ids = [v.sysid for v in mission.fleet]
+    world = LockstepWorld(
+        grid,
+        [Body(v.sysid, v.energy_per_m_pct) for v in mission.fleet],
+        cell_size_m=mission.cell_size_m,
+        charge_pct_per_step=mission.planner.charge_pct_per_step,
+        charging_slots=mission.planner.charging_slots,
+    )
+    reachable = grid.reachable()
+    free_cells = int(reachable.sum())
+    limit = options.max_iterations or mission.planner.max_iterations or 40 * free_cells + 1000
+
+    t0 = time.perf_counter()
+    planner_s = 0.0
+    tick = time.perf_counter()
+    coordinator = Coordinator(
+        grid.shape,
+        grid.charger,
+        [AgentSpec(v.sysid, v.energy_per_m_pct) for v in mission.fleet],
+        planner_settings(mission, options.seed),
+        prior=prior_map(mission),  # type: ignore[arg-type]
+    )
+    for i in ids:
+        coordinator.observe(i, grid.charger, world.sense(grid.charger), world.battery[i])
+    planner_s += time.perf_counter() - tick
+
+    tracks: dict[int, list[Cell]] = {i: [grid.charger] for i in ids}
+    batteries: dict[int, list[float]] = {i: [100.0] for i in ids}
+    path_moves = dict.fromkeys(ids, 0)
+    homing_moves = dict.fromkeys(ids, 0)
+    covered_series = [coordinator.belief.covered_count]
+    btps: dict[Cell, dict[str, int | None]] = {}
+    coverage_iterations: int | None = None
+
+    def record(iteration: int) -> None:
+        for event in coordinator.drain_events():
+            if events is not None:
+                events.append((iteration, event))
+            if event.kind == EventKind.BTP_DETECTED and event.cell not in btps:
+                btps[event.cell] = {
+                    "by": event.agent,
+                    "at": iteration,
+                    "cov_by": None,
+                    "cov_at": None,
+                }
+            elif event.kind == EventKind.BTP_COVERED and event.cell in btps:
+                btps[event.cell].update(cov_by=event.agent, cov_at=iteration)
+
+    record(0)
+    iteration = 0
+    while iteration < limit and not coordinator.finished:
+        iteration += 1
+        for i in ids:
+            if i in world.dead:
+                continue
+            tick = time.perf_counter()
+            homing = coordinator.mode(i) == AgentMode.HOMING or coordinator.coverage_complete
+            action = coordinator.decide(i)
+            planner_s += time.perf_counter() - tick
+            if action.kind == ActionKind.MOVE:
+                assert action.to is not None
+                world.move(i, action.to)
+                if homing:
+                    homing_moves[i] += 1
+                else:
+                    path_moves[i] += 1
+                tick = time.perf_counter()
+                if i in world.dead:
+                    coordinator.mark_lost(i)
+                else:
+                    coordinator.observe(i, action.to, world.sense(action.to), world.battery[i])
+                planner_s += time.perf_counter() - tick
+            elif action.kind == ActionKind.CHARGE:
+                world.request_charge(i)
+        world.end_iteration()
+        tick = time.perf_counter()
+        for i in ids:
+            if i not in world.dead:
+                coordinator.update_battery(i, world.battery[i])
+        planner_s += time.perf_counter() - tick
+        for i in ids:
+            tracks[i].append(world.position[i])
+            batteries[i].append(world.battery[i])
+        covered_series.append(coordinator.belief.covered_count)
+        record(iteration)
+        if coverage_iterations is None and coordinator.coverage_complete:
+            coverage_iterations = iteration
+        if progress is not None:
+            progress(iteration, coordinator.belief.covered_count, free_cells)
+
+    cell_m = mission.cell_size_m
+    agents = tuple(
+        AgentTrace(
+            id=i,
+            track=tuple(tracks[i]),
+            battery_pct=tuple(batteries[i]),
+            path_m=path_moves[i] * cell_m,
+            homing_m=homing_moves[i] * cell_m,
+            charges=coordinator.charges(i),
+            min_battery_pct=min(batteries[i]),
+            lost=i in world.dead or coordinator.mode(i) == AgentMode.LOST,
+        )
+        for i in ids
+    )
+    covered = coordinator.belief.covered_grid()
+    return RunResult(
+        mission=mission.name,
+        shape=grid.shape,
+        cell_size_m=cell_m,
+        charger=grid.charger,
+        reserve_pct=mission.planner.reserve_pct,
+        belief=coordinator.belief.state_grid(),
+        covered=covered,
+        agents=agents,
+        btps=tuple(
+            BtpRecord(cell, int(b["by"] or 0), int(b["at"] or 0), b["cov_by"], b["cov_at"])
+            for cell, b in btps.items()
+        ),
+        covered_per_iteration=tuple(covered_series),
+        iterations=coverage_iterations if coverage_iterations is not None else iteration,
+        free_cells=free_cells,
+        covered_cells=int((covered & reachable).sum()),
+        out_of_range_cells=len(coordinator.out_of_range_cells()),
+        safety_net_fires=coordinator.safety_net_fires,
+        wall_s=time.perf_counter() - t0,
+        planner_s=planner_s,
+        extra={"btps_detected": coordinator.btps_detected, "total_iterations": iteration},
+    )

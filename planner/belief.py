@@ -1,0 +1,176 @@
+"""The planner's map belief ``M``: unknown / free / obstacle, and which free cells are covered.
+
+Cells are stored flat in ``bytearray``s with a one-cell border of obstacles
+around the map, so that neighbour look-ups need no bounds checks and pure
+Python loops stay fast. ``index``/``cell`` convert between ``(row, col)`` and
+the flat index. Everything outside the map is an obstacle.
+
+The belief also keeps the distance field from the charging station over the
+known free cells. It is updated incrementally as free cells are discovered
+(distances only ever shrink when the known free space grows), so the return
+cost of any cell is one look-up.
+"""
+
+from __future__ import annotations
+
+from array import array
+from collections import deque
+from collections.abc import Mapping
+
+import numpy as np
+
+from planner.grid import Cell, CellState, Direction
+
+UNREACHED = 1 << 30
+
+_FREE = int(CellState.FREE)
+_OBSTACLE = int(CellState.OBSTACLE)
+_UNKNOWN = int(CellState.UNKNOWN)
+
+
+class MapBelief:
+    def __init__(self, shape: tuple[int, int], charger: Cell) -> None:
+        rows, cols = shape
+        if rows <= 0 or cols <= 0:
+            raise ValueError(f"map shape must be positive, got {shape}")
+        self.shape = (rows, cols)
+        self.stride = cols + 2
+        size = (rows + 2) * self.stride
+        self.state = bytearray([_UNKNOWN]) * size
+        for c in range(self.stride):
+            self.state[c] = _OBSTACLE
+            self.state[(rows + 1) * self.stride + c] = _OBSTACLE
+        for r in range(rows + 2):
+            self.state[r * self.stride] = _OBSTACLE
+            self.state[r * self.stride + cols + 1] = _OBSTACLE
+        self.covered = bytearray(size)
+        #: Agent id + 1 of the first agent to cover a cell (0 = not covered).
+        self.covered_by = array("h", bytes(2 * size))
+        self.charger_dist = array("i", [UNREACHED]) * size
+        self.charger = charger
+        self.charger_index = self.index(charger)
+        self.steps = (-self.stride, self.stride, 1, -1)  # N, S, E, W
+        self.covered_count = 0
+        self.free_count = 0
+        #: Flat indices of known free cells not covered yet (the frontier).
+        self.uncovered: set[int] = set()
+        self._set_free(self.charger_index)
+
+    # -- addressing ---------------------------------------------------------
+
+    def index(self, cell: Cell) -> int:
+        return (cell[0] + 1) * self.stride + cell[1] + 1
+
+    def cell(self, index: int) -> Cell:
+        r, c = divmod(index, self.stride)
+        return (r - 1, c - 1)
+
+    def inside(self, cell: Cell) -> bool:
+        return 0 <= cell[0] < self.shape[0] and 0 <= cell[1] < self.shape[1]
+
+    # -- queries ------------------------------------------------------------
+
+    def state_of(self, cell: Cell) -> CellState:
+        if not self.inside(cell):
+            return CellState.OBSTACLE
+        return CellState(self.state[self.index(cell)])
+
+    def is_free(self, cell: Cell) -> bool:
+        return self.inside(cell) and self.state[self.index(cell)] == _FREE
+
+    def is_covered(self, cell: Cell) -> bool:
+        return self.inside(cell) and bool(self.covered[self.index(cell)])
+
+    def distance_to_charger(self, cell: Cell) -> int:
+        """Moves from ``cell`` to the charger over known free cells (UNREACHED if none)."""
+        return self.charger_dist[self.index(cell)]
+
+    # -- updates ------------------------------------------------------------
+
+    def sense(self, cell: Cell, readings: Mapping[Direction, CellState]) -> list[int]:
+        """Record what an agent at ``cell`` sensed; return newly known free cells."""
+        newly_free: list[int] = []
+        for direction, observed in readings.items():
+            nbr = direction.of(cell)
+            if not self.inside(nbr) or observed == CellState.UNKNOWN:
+                continue
+            i = self.index(nbr)
+            if self.state[i] != _UNKNOWN:
+                continue
+            if observed == CellState.FREE:
+                self._set_free(i)
+                newly_free.append(i)
+            else:
+                self.state[i] = _OBSTACLE
+        return newly_free
+
+    def cover(self, cell: Cell, agent: int) -> bool:
+        """Mark ``cell`` covered by ``agent`` (it is free: an agent stands on it).
+
+        Returns True when the cell was not covered before.
+        """
+        i = self.index(cell)
+        if self.state[i] != _FREE:
+            self._set_free(i)
+        if self.covered[i]:
+            return False
+        self.covered[i] = 1
+        self.covered_by[i] = agent + 1
+        self.covered_count += 1
+        self.uncovered.discard(i)
+        return True
+
+    def mark_free(self, i: int) -> None:
+        """Record flat index ``i`` as free (known from a prior map), if it was unknown."""
+        if self.state[i] == _UNKNOWN:
+            self._set_free(i)
+
+    def _set_free(self, i: int) -> None:
+        self.state[i] = _FREE
+        self.free_count += 1
+        if not self.covered[i]:
+            self.uncovered.add(i)
+        dist = self.charger_dist
+        if i == self.charger_index:
+            dist[i] = 0
+        else:
+            best = min(
+                (dist[i + s] for s in self.steps if self.state[i + s] == _FREE), default=UNREACHED
+            )
+            if best >= UNREACHED:
+                return
+            dist[i] = best + 1
+        self._relax_from(i)
+
+    def _relax_from(self, start: int) -> None:
+        """Propagate a shortened distance outwards (decrease-only BFS)."""
+        state, dist, steps = self.state, self.charger_dist, self.steps
+        queue = deque([start])
+        while queue:
+            u = queue.popleft()
+            du = dist[u] + 1
+            for s in steps:
+                v = u + s
+                if state[v] == _FREE and du < dist[v]:
+                    dist[v] = du
+                    queue.append(v)
+
+    # -- export -------------------------------------------------------------
+
+    def _unpad(self, flat: bytearray | array) -> np.ndarray:
+        rows, cols = self.shape
+        grid = (
+            np.frombuffer(flat, dtype=np.uint8) if isinstance(flat, bytearray) else np.asarray(flat)
+        )
+        return grid.reshape(rows + 2, self.stride)[1 : rows + 1, 1 : cols + 1].copy()
+
+    def state_grid(self) -> np.ndarray:
+        """The belief as a ``(rows, cols)`` array of ``CellState`` values."""
+        return self._unpad(self.state).astype(np.int8)
+
+    def covered_grid(self) -> np.ndarray:
+        return self._unpad(self.covered).astype(bool)
+
+    def covered_by_grid(self) -> np.ndarray:
+        """Agent id of the first agent to cover each cell, -1 where uncovered."""
+        return self._unpad(self.covered_by).astype(np.int16) - 1

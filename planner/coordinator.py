@@ -1,0 +1,539 @@
+"""Multi-agent exploration and coverage with the staying alive policy (paper, Algorithm 4).
+
+The coordinator owns the shared map belief, the BTP stacks and every agent's
+plan. It is driven from outside, one agent at a time, which serves both the
+lockstep simulation (``gcs plan``: every agent decides once per iteration)
+and a live mission (each vehicle asks for its next move when it has arrived):
+
+* ``observe(agent, cell, readings, battery_pct)`` after the agent arrived
+  somewhere and sensed its 8 neighbours;
+* ``decide(agent) -> Action``: move to a neighbour cell, wait, or charge.
+
+A move reserves the target cell at once, so that no two agents ever head for
+the same cell and no two agents swap cells. The charging station is a depot
+with room for the whole fleet: agents standing on it occupy nothing.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from enum import IntEnum, StrEnum
+
+import numpy as np
+
+from planner import btp
+from planner.belief import UNREACHED, MapBelief
+from planner.grid import MOVES, Cell, CellState, Direction, manhattan
+from planner.paths import nearest, path_to_charger, shortest_path
+from planner.prm import Roadmap
+from planner.settings import (
+    AgentSpec,
+    BmRule,
+    PathPlannerKind,
+    PlannerSettings,
+    TargetPolicy,
+)
+
+_FREE = int(CellState.FREE)
+_OBSTACLE = int(CellState.OBSTACLE)
+_EPS = 1e-9
+
+
+class AgentMode(StrEnum):
+    EXPLORE = "exploring"  # boustrophedon motion
+    TRANSIT = "transit"  # on the way to a BTP
+    RETURN = "returning"  # on the way to charge (staying alive policy)
+    CHARGE = "charging"
+    IDLE = "idle"  # nothing to take: waits for a BTP
+    HOMING = "homing"  # coverage complete: back to the charger
+    DONE = "done"
+    LOST = "lost"
+
+
+class ActionKind(StrEnum):
+    MOVE = "move"
+    WAIT = "wait"
+    CHARGE = "charge"
+
+
+@dataclass(frozen=True)
+class Action:
+    kind: ActionKind
+    to: Cell | None = None
+
+
+WAIT = Action(ActionKind.WAIT)
+CHARGE = Action(ActionKind.CHARGE)
+
+
+class EventKind(StrEnum):
+    BTP_DETECTED = "btp_detected"
+    BTP_COVERED = "btp_covered"
+    TARGET = "target"  # a blocked agent took a BTP
+    SAFETY_NET = "safety_net"  # no BTP left: took a frontier cell
+    RETURN = "return_to_charge"
+    CHARGED = "charged"
+    OUT_OF_RANGE = "out_of_range"
+    COVERAGE_COMPLETE = "coverage_complete"
+    LOST = "lost"
+
+
+@dataclass(frozen=True)
+class PlannerEvent:
+    kind: EventKind
+    agent: int
+    cell: Cell | None = None
+
+
+class _Tier(IntEnum):
+    OWN = 0
+    GLOBAL = 1
+    NET = 2
+    FRONTIER = 3
+
+
+_PRIORITY = {AgentMode.RETURN: 3, AgentMode.HOMING: 2, AgentMode.TRANSIT: 1}
+
+
+@dataclass
+class _Agent:
+    spec: AgentSpec
+    index: int
+    battery_pct: float = 100.0
+    mode: AgentMode = AgentMode.EXPLORE
+    path: list[int] = field(default_factory=list)  # remaining moves, next first
+    goal: int | None = None
+    heading: Direction | None = None
+    pending: int | None = None  # reserved target of the move under way
+    charges: int = 0
+    waited: int = 0
+    make_way_for: int | None = None
+
+    @property
+    def id(self) -> int:
+        return self.spec.id
+
+
+class Coordinator:
+    def __init__(
+        self,
+        shape: tuple[int, int],
+        charger: Cell,
+        agents: Sequence[AgentSpec],
+        settings: PlannerSettings | None = None,
+        prior: np.ndarray | None = None,
+    ) -> None:
+        """``prior``: a known map (``CellState`` values, UNKNOWN where not known) for
+        agents that are given the map instead of sensing it."""
+        self.settings = settings or PlannerSettings()
+        ids = [a.id for a in agents]
+        if len(set(ids)) != len(ids):
+            raise ValueError("agent ids must be unique")
+        self.belief = MapBelief(shape, charger)
+        if prior is not None:
+            self._load_prior(prior)
+        self.stacks = btp.BtpStacks()
+        self._agents = {a.id: _Agent(a, self.belief.charger_index) for a in agents}
+        self._occupant: dict[int, int] = {}
+        self._claims: dict[int, int] = {}  # target cell -> agent chasing it
+        self._events: list[PlannerEvent] = []
+        self._complete = False
+        self._roadmap = (
+            Roadmap(self.settings) if self.settings.path_planner == PathPlannerKind.PRM else None
+        )
+        self.btps_detected = 0
+        self.safety_net_fires = 0
+
+    # -- queries ------------------------------------------------------------
+
+    def mode(self, agent: int) -> AgentMode:
+        return self._agents[agent].mode
+
+    def charges(self, agent: int) -> int:
+        return self._agents[agent].charges
+
+    def cell_of(self, agent: int) -> Cell:
+        return self.belief.cell(self._agents[agent].index)
+
+    def btps(self) -> list[Cell]:
+        return [self.belief.cell(i) for i in self.stacks.owner]
+
+    @property
+    def coverage_complete(self) -> bool:
+        """Nothing is left that any agent can reach and come back from."""
+        if not self._complete and not any(self._in_range(i) for i in self.belief.uncovered):
+            self._complete = True
+            self._events.append(PlannerEvent(EventKind.COVERAGE_COMPLETE, -1))
+        return self._complete
+
+    @property
+    def finished(self) -> bool:
+        return all(a.mode in (AgentMode.DONE, AgentMode.LOST) for a in self._agents.values())
+
+    def out_of_range_cells(self) -> list[Cell]:
+        return [self.belief.cell(i) for i in self.belief.uncovered if not self._in_range(i)]
+
+    def drain_events(self) -> list[PlannerEvent]:
+        events, self._events = self._events, []
+        return events
+
+    # -- inputs -------------------------------------------------------------
+
+    def observe(
+        self,
+        agent: int,
+        cell: Cell,
+        readings: Mapping[Direction, CellState],
+        battery_pct: float,
+    ) -> None:
+        """The agent stands on ``cell``, sensed ``readings`` and has ``battery_pct`` left."""
+        a = self._agents[agent]
+        belief = self.belief
+        index = belief.index(cell)
+        if a.pending is not None and a.pending != index:
+            self._release(a.pending, a.id)
+        a.pending = None
+        if index != a.index:
+            if abs(index - a.index) in (1, belief.stride):
+                a.heading = Direction.between(belief.cell(a.index), cell)
+            else:
+                a.path.clear()  # displaced: plans from here on
+            self._release(a.index, a.id)
+            a.index = index
+        self._occupy(index, a.id)
+        a.battery_pct = battery_pct
+        newly_free = belief.sense(cell, readings)
+        if belief.cover(cell, a.id):
+            self._on_covered(index, a.id)
+        if newly_free and self._roadmap is not None:
+            self._roadmap.grow(belief, newly_free)
+        if a.heading is not None and a.mode == AgentMode.EXPLORE:
+            for x in btp.detect(belief, index, a.heading):
+                if self.stacks.push(a.id, x):
+                    self.btps_detected += 1
+                    self._events.append(PlannerEvent(EventKind.BTP_DETECTED, a.id, belief.cell(x)))
+
+    def update_battery(self, agent: int, battery_pct: float) -> None:
+        """New battery telemetry without a move (e.g. while charging)."""
+        self._agents[agent].battery_pct = battery_pct
+
+    def mark_lost(self, agent: int) -> None:
+        """The agent is gone: its BTPs go back to the global stack, its claims are freed."""
+        a = self._agents[agent]
+        a.mode = AgentMode.LOST
+        a.path.clear()
+        self.stacks.release(a.id)
+        self._drop_claim(a)
+        if a.pending is not None:
+            self._release(a.pending, a.id)
+        self._events.append(PlannerEvent(EventKind.LOST, a.id, self.belief.cell(a.index)))
+
+    # -- the decision -------------------------------------------------------
+
+    def decide(self, agent: int) -> Action:
+        a = self._agents[agent]
+        if a.mode in (AgentMode.DONE, AgentMode.LOST):
+            return WAIT
+        at_charger = a.index == self.belief.charger_index
+        if a.mode == AgentMode.CHARGE:
+            if a.battery_pct < self.settings.resume_pct - _EPS:
+                return CHARGE
+            a.mode = AgentMode.IDLE
+        if a.make_way_for is not None:
+            action = self._make_way(a)
+            if action is not None:
+                return action
+        if self.coverage_complete and a.mode not in (AgentMode.RETURN, AgentMode.HOMING):
+            self._drop_claim(a)
+            a.mode = AgentMode.HOMING
+            a.path.clear()
+        if a.mode in (AgentMode.RETURN, AgentMode.HOMING):
+            if at_charger:
+                if a.mode == AgentMode.HOMING:
+                    a.mode = AgentMode.DONE
+                    return WAIT
+                a.mode = AgentMode.CHARGE
+                a.charges += 1
+                self._events.append(PlannerEvent(EventKind.CHARGED, a.id, self.belief.charger))
+                return CHARGE
+            return self._follow(a, self.belief.charger_index)
+        if a.mode == AgentMode.TRANSIT:
+            assert a.goal is not None
+            if a.index == a.goal or a.goal not in self.belief.uncovered:
+                self._drop_claim(a)
+                a.mode = AgentMode.EXPLORE
+            else:
+                return self._follow(a, a.goal)
+        nxt = self._bm_next(a)
+        if nxt is not None:
+            if self._can_afford(a, 1, nxt):
+                a.mode = AgentMode.EXPLORE
+                return self._move(a, nxt)
+            # Staying alive: not enough to come back from there. Leave a BTP where
+            # the sweep stops so that it is resumed, and go to charge.
+            if self.stacks.push(a.id, nxt):
+                self.btps_detected += 1
+                self._events.append(
+                    PlannerEvent(EventKind.BTP_DETECTED, a.id, self.belief.cell(nxt))
+                )
+            return self._go_charge(a)
+        return self._take_target(a)
+
+    # -- boustrophedon motion ------------------------------------------------
+
+    def _bm_next(self, a: _Agent) -> int | None:
+        """The next cell of the boustrophedon motion (Algorithm 1), or None when blocked.
+
+        The paper takes the first of N, S, E, W that is free, uncovered and not
+        taken. ``BmRule.TIGHT`` ranks those candidates first by how many
+        uncovered ways on they leave (fewest first, unknown counting as open),
+        then by the paper's order: it sweeps into dead ends and narrow strips
+        before leaving them, so fewer pockets are left behind to come back for.
+        """
+        state, covered, occupant = self.belief.state, self.belief.covered, self._occupant
+        steps = self.belief.steps
+        candidates = [
+            v
+            for v in (a.index + s for s in steps)
+            if state[v] == _FREE and not covered[v] and v not in occupant
+        ]
+        if len(candidates) <= 1 or self.settings.bm_rule == BmRule.PAPER:
+            return candidates[0] if candidates else None
+
+        def openings(v: int) -> int:
+            return sum(
+                1
+                for s in steps
+                if v + s != a.index and state[v + s] != _OBSTACLE and not covered[v + s]
+            )
+
+        return min(candidates, key=openings)
+
+    # -- blocked: choose a BTP (Algorithm 3 with exact search) ------------------
+
+    def _take_target(self, a: _Agent) -> Action:
+        self._drop_claim(a)
+        uncovered, claims, owner = self.belief.uncovered, self._claims, self.stacks.owner
+        tiers: list[tuple[_Tier, set[int] | dict[int, None]]]
+        policy = self.settings.target_policy
+        if policy == TargetPolicy.OWN_FIRST:
+            tiers = [(_Tier.OWN, self.stacks.own(a.id)), (_Tier.GLOBAL, owner)]
+        elif policy == TargetPolicy.NEAREST:
+            tiers = [(_Tier.GLOBAL, owner)]
+        else:
+            tiers = [(_Tier.FRONTIER, uncovered)]
+        if policy != TargetPolicy.FRONTIER:
+            tiers.append((_Tier.NET, uncovered))
+        any_candidate = False
+        for tier, pool in tiers:
+            candidates = {i for i in pool if i not in claims and self._in_range(i)}
+            if not candidates:
+                continue
+            any_candidate = True
+            found = self._nearest_affordable(a, candidates)
+            if found is None:
+                continue
+            goal, path = found
+            self._claims[goal] = a.id
+            a.goal, a.path, a.mode = goal, path, AgentMode.TRANSIT
+            kind = EventKind.SAFETY_NET if tier == _Tier.NET else EventKind.TARGET
+            if tier == _Tier.NET:
+                self.safety_net_fires += 1
+            self._events.append(PlannerEvent(kind, a.id, self.belief.cell(goal)))
+            return self._follow(a, goal)
+        if any_candidate and a.index != self.belief.charger_index:
+            return self._go_charge(a)
+        a.mode = AgentMode.IDLE
+        return WAIT
+
+    def _nearest_affordable(self, a: _Agent, candidates: set[int]) -> tuple[int, list[int]] | None:
+        """The closest candidate the agent can afford, preferring those no other
+        working agent is closer to (they are likely to be swept by that agent)."""
+        if self._roadmap is not None:
+            return self._roadmap.nearest(
+                self.belief, a.index, candidates, lambda i, d: self._can_afford(a, d, i)
+            )
+        if self.settings.spread:
+            others = [
+                self.belief.cell(b.index)
+                for b in self._agents.values()
+                if b is not a and b.mode in (AgentMode.EXPLORE, AgentMode.TRANSIT)
+            ]
+            if others:
+
+                def uncontested(i: int, d: int) -> bool:
+                    cell = self.belief.cell(i)
+                    return all(manhattan(cell, o) >= d for o in others)
+
+                found = nearest(
+                    self.belief,
+                    a.index,
+                    lambda i, d: (
+                        i in candidates and uncontested(i, d) and self._can_afford(a, d, i)
+                    ),
+                )
+                if found is not None:
+                    return found
+        return nearest(
+            self.belief, a.index, lambda i, d: i in candidates and self._can_afford(a, d, i)
+        )
+
+    # -- staying alive policy (Algorithm 2) ------------------------------------
+
+    def _move_cost(self, a: _Agent) -> float:
+        return a.spec.energy_per_m_pct * self.settings.cell_size_m
+
+    def _can_afford(self, a: _Agent, moves: int, there: int) -> bool:
+        """After ``moves`` moves to ``there``, can the agent still reach the charger
+        over known free cells and arrive with at least the reserve?"""
+        cost = self._move_cost(a)
+        home = self.belief.charger_dist[there]
+        if home >= UNREACHED:
+            return False
+        return a.battery_pct - cost * (moves + home) >= self.settings.reserve_pct - _EPS
+
+    def _in_range(self, index: int) -> bool:
+        """Can a fully charged agent go to ``index`` and come back (for some agent)?"""
+        home = self.belief.charger_dist[index]
+        if home >= UNREACHED:
+            return True  # not connected to what we know yet: cannot judge, keep it
+        budget = self.settings.resume_pct - self.settings.reserve_pct + _EPS
+        return any(
+            2 * home * self._move_cost(a) <= budget
+            for a in self._agents.values()
+            if a.mode != AgentMode.LOST
+        )
+
+    def _go_charge(self, a: _Agent) -> Action:
+        self._drop_claim(a)
+        a.mode = AgentMode.RETURN
+        a.path.clear()
+        self._events.append(PlannerEvent(EventKind.RETURN, a.id, self.belief.cell(a.index)))
+        if a.index == self.belief.charger_index:
+            a.mode = AgentMode.CHARGE
+            a.charges += 1
+            return CHARGE
+        return self._follow(a, self.belief.charger_index)
+
+    # -- moving along a path without collisions --------------------------------
+
+    def _plan(
+        self, a: _Agent, goal: int, blocked: frozenset[int] = frozenset()
+    ) -> list[int] | None:
+        if self._roadmap is not None and not blocked:
+            return self._roadmap.path(self.belief, a.index, goal)
+        if goal == self.belief.charger_index:
+            return path_to_charger(self.belief, a.index, blocked)
+        return shortest_path(self.belief, a.index, goal, blocked)
+
+    def _follow(self, a: _Agent, goal: int) -> Action:
+        if not a.path or abs(a.path[0] - a.index) not in (1, self.belief.stride):
+            path = self._plan(a, goal)
+            if path is None:  # cannot happen on a connected known map; be safe
+                a.mode = AgentMode.IDLE
+                self._drop_claim(a)
+                return WAIT
+            a.path = path
+        nxt = a.path[0]
+        blocker = self._occupant.get(nxt)
+        if blocker is None or blocker == a.id:
+            a.path.pop(0)
+            return self._move(a, nxt)
+        detour = self._detour(a, goal)
+        if detour is not None:
+            a.path = detour
+            return self._move(a, a.path.pop(0))
+        a.waited += 1
+        if a.waited >= self.settings.patience:
+            self._ask_to_make_way(a, self._agents[blocker])
+        return WAIT
+
+    def _detour(self, a: _Agent, goal: int) -> list[int] | None:
+        """A path around the agents in the way, if it is not much longer and affordable."""
+        blocked = frozenset(i for i in self._occupant if i != goal and i != a.index)
+        path = self._plan(a, goal, blocked)
+        if not path or len(path) > len(a.path) + 2 * self.settings.patience:
+            return None
+        if a.mode in (AgentMode.RETURN, AgentMode.HOMING):
+            affordable = a.battery_pct - self._move_cost(a) * len(path) >= (
+                self.settings.reserve_pct - _EPS
+            )
+        else:
+            affordable = self._can_afford(a, len(path), goal)
+        return path if affordable else None
+
+    def _priority(self, a: _Agent) -> tuple[int, int]:
+        return (_PRIORITY.get(a.mode, 0), -a.id)
+
+    def _ask_to_make_way(self, a: _Agent, blocker: _Agent) -> None:
+        if blocker.mode == AgentMode.IDLE or self._priority(a) > self._priority(blocker):
+            blocker.make_way_for = a.id
+
+    def _make_way(self, b: _Agent) -> Action | None:
+        """Step aside for the agent that asked, if it still needs this cell."""
+        assert b.make_way_for is not None
+        a = self._agents[b.make_way_for]
+        b.make_way_for = None
+        if not a.path or a.path[0] != b.index:
+            return None
+        ahead = set(a.path)
+        best: tuple[tuple[bool, int], int] | None = None
+        for s in self.belief.steps:
+            v = b.index + s
+            if (
+                self.belief.state[v] != _FREE
+                or v == a.index
+                or v in self._occupant
+                or not self._can_afford(b, 1, v)
+            ):
+                continue
+            key = (v not in ahead, manhattan(self.belief.cell(v), self.belief.cell(a.index)))
+            if best is None or key > best[0]:
+                best = (key, v)
+        if best is None:
+            return None
+        b.path.clear()
+        return self._move(b, best[1])
+
+    def _move(self, a: _Agent, to: int) -> Action:
+        a.waited = 0
+        a.pending = to
+        self._occupy(to, a.id)
+        return Action(ActionKind.MOVE, self.belief.cell(to))
+
+    # -- bookkeeping --------------------------------------------------------------
+
+    def _occupy(self, index: int, agent: int) -> None:
+        if index != self.belief.charger_index:
+            self._occupant[index] = agent
+
+    def _release(self, index: int, agent: int) -> None:
+        if self._occupant.get(index) == agent:
+            del self._occupant[index]
+
+    def _drop_claim(self, a: _Agent) -> None:
+        if a.goal is not None and self._claims.get(a.goal) == a.id:
+            del self._claims[a.goal]
+        a.goal = None
+
+    def _on_covered(self, index: int, agent: int) -> None:
+        if self.stacks.remove(index):
+            self._events.append(PlannerEvent(EventKind.BTP_COVERED, agent, self.belief.cell(index)))
+
+    def _load_prior(self, prior: np.ndarray) -> None:
+        if prior.shape != self.belief.shape:
+            raise ValueError(f"prior map shape {prior.shape} != {self.belief.shape}")
+        belief = self.belief
+        for r, c in zip(*np.nonzero(prior == CellState.OBSTACLE), strict=True):
+            belief.state[belief.index((int(r), int(c)))] = int(CellState.OBSTACLE)
+        cr, cc = belief.charger
+        free = sorted(
+            ((int(r), int(c)) for r, c in zip(*np.nonzero(prior == CellState.FREE), strict=True)),
+            key=lambda cell: abs(cell[0] - cr) + abs(cell[1] - cc),
+        )
+        for cell in free:  # nearest first keeps the incremental distance update cheap
+            belief.mark_free(belief.index(cell))
+
+
+__all__ = ["MOVES", "Action", "ActionKind", "AgentMode", "Coordinator", "EventKind", "PlannerEvent"]

@@ -1,0 +1,77 @@
+"""Planner settings and the description of each agent the planner is given."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import StrEnum
+
+
+class PathPlannerKind(StrEnum):
+    """How paths to targets and to the charger are found."""
+
+    GRID = "grid"  # exact breadth-first search on the grid (default)
+    PRM = "prm"  # the paper's probabilistic roadmap, on networkx
+
+
+class TargetPolicy(StrEnum):
+    """Which backtracking point a blocked agent takes."""
+
+    OWN_FIRST = "own_first"  # its own stack, then the global one (the paper)
+    NEAREST = "nearest"  # the nearest unclaimed BTP of any stack
+    FRONTIER = "frontier"  # the nearest uncovered free cell, BTP or not
+
+
+class BmRule(StrEnum):
+    """How the boustrophedon motion picks among several open directions."""
+
+    PAPER = "paper"  # first of N, S, E, W
+    TIGHT = "tight"  # fewest onward openings first, then N, S, E, W
+
+
+@dataclass(frozen=True)
+class AgentSpec:
+    """What the planner knows of an agent before the mission.
+
+    ``energy_per_m_pct`` is the battery percentage a metre of travel costs
+    (the paper's ``e_i``); 0 means no battery limit. Online it is an estimate
+    with a safety margin, refreshed from telemetry.
+    """
+
+    id: int
+    energy_per_m_pct: float
+
+
+@dataclass(frozen=True)
+class PlannerSettings:
+    cell_size_m: float = 1.0
+    reserve_pct: float = 20.0
+    #: Battery percentage at which a charging agent leaves the charger.
+    resume_pct: float = 100.0
+    #: Percent gained per iteration on the charger; None charges instantly (the paper).
+    charge_pct_per_step: float | None = None
+    #: How many agents can charge at once; None is unlimited (the paper).
+    charging_slots: int | None = None
+    path_planner: PathPlannerKind = PathPlannerKind.GRID
+    target_policy: TargetPolicy = TargetPolicy.FRONTIER
+    bm_rule: BmRule = BmRule.TIGHT
+    #: Prefer targets that no other working agent is closer to.
+    spread: bool = True
+    #: Iterations an agent waits on another before asking it to make way.
+    patience: int = 2
+    #: Share of known free cells that are PRM nodes, and the connection radius in
+    #: cells (only for ``PathPlannerKind.PRM``).
+    prm_node_fraction: float = 0.15
+    prm_radius_cells: float = 6.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.cell_size_m <= 0:
+            raise ValueError("cell_size_m must be positive")
+        if not 0 <= self.reserve_pct < 100:
+            raise ValueError("reserve_pct must be in [0, 100)")
+        if not self.reserve_pct < self.resume_pct <= 100:
+            raise ValueError("resume_pct must be above the reserve and at most 100")
+        if self.charge_pct_per_step is not None and self.charge_pct_per_step <= 0:
+            raise ValueError("charge_pct_per_step must be positive")
+        if self.charging_slots is not None and self.charging_slots < 1:
+            raise ValueError("charging_slots must be at least 1")

@@ -1,0 +1,102 @@
+"""The ground-truth world for offline runs: agents move cell by cell in lockstep.
+
+It answers sensing from the true map, moves agents (refusing moves through
+walls or into another agent, except on the charging pad, which is a depot
+with room for the whole fleet), drains batteries with distance and charges
+them on the pad, a limited number at a time.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from planner.grid import NEIGHBOURS, Cell, CellState, Direction, manhattan
+from sitl_mock.gridmap import GridMap
+
+
+class WorldError(RuntimeError):
+    """A move the physical world does not allow (a bug in whoever commanded it)."""
+
+
+@dataclass(frozen=True)
+class Body:
+    """An agent's physics: battery percent used per metre driven."""
+
+    id: int
+    energy_per_m_pct: float
+
+
+class LockstepWorld:
+    def __init__(
+        self,
+        grid: GridMap,
+        bodies: Sequence[Body],
+        cell_size_m: float = 1.0,
+        charge_pct_per_step: float | None = None,
+        charging_slots: int | None = None,
+    ) -> None:
+        self.grid = grid
+        self.cell_size_m = cell_size_m
+        self.charge_pct_per_step = charge_pct_per_step
+        self.charging_slots = charging_slots
+        self._bodies = {b.id: b for b in bodies}
+        self.position: dict[int, Cell] = {b.id: grid.charger for b in bodies}
+        self.battery: dict[int, float] = {b.id: 100.0 for b in bodies}
+        self.dead: set[int] = set()
+        self._queue: list[int] = []  # charging requests, first come first served
+        self._requested: set[int] = set()
+
+    def sense(self, cell: Cell) -> dict[Direction, CellState]:
+        """The 8 neighbours of ``cell``: free or obstacle (the paper's eq. 2)."""
+        return {
+            d: CellState.FREE if self.grid.is_free(d.of(cell)) else CellState.OBSTACLE
+            for d in NEIGHBOURS
+        }
+
+    def move(self, agent: int, to: Cell) -> None:
+        if agent in self.dead:
+            raise WorldError(f"agent {agent} is dead and cannot move")
+        here = self.position[agent]
+        if manhattan(here, to) != 1:
+            raise WorldError(f"agent {agent}: {here} -> {to} is not a move to a neighbour")
+        if not self.grid.is_free(to):
+            raise WorldError(f"agent {agent}: {to} is an obstacle")
+        if to != self.grid.charger:
+            for other, cell in self.position.items():
+                if other != agent and cell == to:
+                    raise WorldError(f"agent {agent}: {to} is held by agent {other}")
+        self.position[agent] = to
+        self.battery[agent] -= self._bodies[agent].energy_per_m_pct * self.cell_size_m
+        if self.battery[agent] <= 0:
+            self.battery[agent] = 0.0
+            self.dead.add(agent)
+        self._leave_queue(agent)
+
+    def request_charge(self, agent: int) -> None:
+        """The agent stays on the pad and wants charge this iteration."""
+        if self.position[agent] != self.grid.charger:
+            raise WorldError(f"agent {agent} asked to charge away from the pad")
+        self._requested.add(agent)
+        if agent not in self._queue:
+            self._queue.append(agent)
+
+    def end_iteration(self) -> None:
+        """Charge the agents that asked, at most ``charging_slots`` of them."""
+        slots = len(self._queue) if self.charging_slots is None else self.charging_slots
+        for agent in self._queue[:slots]:
+            if agent not in self._requested:
+                continue
+            if self.charge_pct_per_step is None:
+                self.battery[agent] = 100.0
+            else:
+                self.battery[agent] = min(100.0, self.battery[agent] + self.charge_pct_per_step)
+        for agent in [
+            a for a in self._queue if self.battery[a] >= 100.0 or a not in self._requested
+        ]:
+            self._leave_queue(agent)
+        self._requested.clear()
+
+    def _leave_queue(self, agent: int) -> None:
+        if agent in self._queue:
+            self._queue.remove(agent)
