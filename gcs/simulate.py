@@ -9,12 +9,11 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from typing import TYPE_CHECKING
+import numpy as np
 
-if TYPE_CHECKING:
-    from gcs.mission import Mission
+from gcs.mission import Mission
 from gcs.result import AgentTrace, BtpRecord, RunResult
 from planner.coordinator import ActionKind, AgentMode, Coordinator, EventKind, PlannerEvent
 from planner.grid import Cell, CellState
@@ -29,11 +28,12 @@ Progress = Callable[[int, int, int], None]
 class SimOptions:
     seed: int = 0
     max_iterations: int | None = None
-    #: Record a PlannerEvent log in the result (for the MCAP log and tests).
-    keep_events: bool = False
+    #: Planner settings to use instead of the ones the mission gives.
+    settings: PlannerSettings | None = None
 
 
-def planner_settings(mission: Mission, seed: int = 0) -> PlannerSettings:
+def planner_settings(mission: Mission, seed: int = 0, **strategy: object) -> PlannerSettings:
+    """The planner settings a mission asks for; ``strategy`` overrides the rest."""
     spec = mission.planner
     return PlannerSettings(
         cell_size_m=mission.cell_size_m,
@@ -42,10 +42,11 @@ def planner_settings(mission: Mission, seed: int = 0) -> PlannerSettings:
         charging_slots=spec.charging_slots,
         path_planner=PathPlannerKind(spec.path_planner),
         seed=seed,
+        **strategy,  # type: ignore[arg-type]
     )
 
 
-def prior_map(mission: Mission) -> object | None:
+def prior_map(mission: Mission) -> np.ndarray | None:
     """The known map handed to the planner when the fleet takes the map as known."""
     if not mission.fleet or any(v.sensing != "map" for v in mission.fleet):
         return None
@@ -65,6 +66,8 @@ def simulate(
     """
     options = options or SimOptions()
     grid = mission.map
+    if grid.pads[:1] != (mission.charger,):
+        grid = replace(grid, pads=(mission.charger,))
     ids = [v.sysid for v in mission.fleet]
     world = LockstepWorld(
         grid,
@@ -84,8 +87,8 @@ def simulate(
         grid.shape,
         grid.charger,
         [AgentSpec(v.sysid, v.energy_per_m_pct) for v in mission.fleet],
-        planner_settings(mission, options.seed),
-        prior=prior_map(mission),  # type: ignore[arg-type]
+        options.settings or planner_settings(mission, options.seed),
+        prior=prior_map(mission),
     )
     for i in ids:
         coordinator.observe(i, grid.charger, world.sense(grid.charger), world.battery[i])

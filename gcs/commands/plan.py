@@ -1,0 +1,145 @@
+"""``gcs plan``: the planner alone against a simulated world, fast, for studies."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
+from gcs.figures import write_figures
+from gcs.mission import Mission, MissionError, load_mission
+from gcs.preflight import check_range
+from gcs.report import print_summary, write_report
+from gcs.result import RunResult
+from gcs.simulate import SimOptions, planner_settings, simulate
+from planner.settings import BmRule, PathPlannerKind, TargetPolicy
+
+#: Runs shorter than this many free cells finish before a progress bar is worth showing.
+PROGRESS_MIN_CELLS = 5000
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser(
+        "plan",
+        help="run the planner offline against the mission's map (no MAVLink)",
+        description=(
+            "Run the planner against a simulated world built from the mission's map, in "
+            "lockstep iterations (every agent moves at most once per iteration, as the paper "
+            "counts them). Prints a summary; with --out writes report.json and figures."
+        ),
+    )
+    add_mission_arguments(p)
+    p.add_argument("--out", type=Path, help="write report.json and PNG figures to this folder")
+    p.add_argument("--seed", type=int, default=0, help="seed for the planner's random choices")
+    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    p.set_defaults(func=run)
+
+
+def add_mission_arguments(p: argparse.ArgumentParser) -> None:
+    """The mission and planner-strategy options shared by ``plan`` and ``bench``."""
+    p.add_argument("mission", type=Path, help="mission file (YAML)")
+    p.add_argument("--agents", type=int, metavar="N", help="override the fleet size")
+    strategy = p.add_argument_group("planner strategy (defaults: our best)")
+    strategy.add_argument(
+        "--bm",
+        choices=[r.value for r in BmRule],
+        help="boustrophedon rule: 'paper' takes the first of N,S,E,W; 'tight' (default) "
+        "sweeps dead ends and strips first",
+    )
+    strategy.add_argument(
+        "--targets",
+        choices=[t.value for t in TargetPolicy],
+        help="what a blocked agent goes to: 'own_first' (the paper: own BTP stack, then the "
+        "global one, then the safety net), 'nearest' BTP, or 'frontier' (default: the "
+        "nearest uncovered cell)",
+    )
+    strategy.add_argument(
+        "--no-spread",
+        action="store_true",
+        help="do not prefer targets that no other working agent is closer to",
+    )
+    strategy.add_argument(
+        "--path-planner",
+        choices=[k.value for k in PathPlannerKind],
+        help="exact grid search (default) or the paper's PRM",
+    )
+
+
+def load(args: argparse.Namespace) -> Mission:
+    try:
+        mission = load_mission(args.mission)
+        if args.agents is not None:
+            mission = mission.with_agents(args.agents)
+    except MissionError as exc:
+        raise UsageError(str(exc)) from exc
+    return mission
+
+
+def strategy_overrides(args: argparse.Namespace) -> dict[str, object]:
+    overrides: dict[str, object] = {}
+    if args.bm:
+        overrides["bm_rule"] = BmRule(args.bm)
+    if args.targets:
+        overrides["target_policy"] = TargetPolicy(args.targets)
+    if args.no_spread:
+        overrides["spread"] = False
+    return overrides
+
+
+def run(args: argparse.Namespace) -> int:
+    mission = load(args)
+    if args.path_planner:
+        mission = dataclasses.replace(
+            mission,
+            planner=dataclasses.replace(mission.planner, path_planner=args.path_planner),
+        )
+    console = Console(quiet=args.quiet)
+    errors = Console(stderr=True, quiet=args.quiet)
+    reach = check_range(mission)
+    if reach.out_of_range:
+        errors.print(f"[yellow]warning:[/] {reach.message()}")
+    settings = planner_settings(mission, args.seed, **strategy_overrides(args))
+    result = simulate_with_progress(mission, SimOptions(seed=args.seed, settings=settings), errors)
+    print_summary(result, console)
+    if args.out:
+        write_outputs(result, args.out)
+        console.print(f"wrote {args.out}/report.json and figures")
+    return EXIT_OK if result.complete else EXIT_FAILED
+
+
+def simulate_with_progress(mission: Mission, options: SimOptions, console: Console) -> RunResult:
+    """Simulate, with a progress bar on the console for long runs."""
+    free = int(mission.map.reachable().sum()) if mission.map.is_free(mission.charger) else 0
+    if free < PROGRESS_MIN_CELLS or not console.is_terminal:
+        return simulate(mission, options)
+    with Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total} cells"),
+        TextColumn("iteration {task.fields[iteration]}"),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+    ) as bar:
+        task = bar.add_task(f"covering {mission.name}", total=free, iteration=0)
+
+        def tick(iteration: int, covered: int, total: int) -> None:
+            if iteration % 50 == 0:
+                bar.update(task, completed=covered, iteration=iteration)
+
+        return simulate(mission, options, progress=tick)
+
+
+def write_outputs(result: RunResult, out: Path) -> None:
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"--out: cannot create {out}: {exc.strerror}") from exc
+    write_report(result, out)
+    write_figures(result, out)
+
+
