@@ -260,7 +260,11 @@ class Coordinator:
             return self._follow(a, self.belief.charger_index)
         if a.mode == AgentMode.TRANSIT:
             assert a.goal is not None
-            if a.index == a.goal or a.goal not in self.belief.uncovered:
+            if (
+                a.index == a.goal
+                or a.goal not in self.belief.uncovered
+                or self.settings.replan_transit
+            ):
                 self._drop_claim(a)
                 a.mode = AgentMode.EXPLORE
             else:

@@ -25,7 +25,7 @@ def nearest(
 ) -> tuple[int, list[int]] | None:
     """Search outwards from ``start`` for the closest cell ``i`` with ``accept(i, distance)``.
 
-    Returns that cell's path, or None. ``blocked`` cells (other agents) are
+    Returns that cell and its path, or None. ``blocked`` cells (other agents) are
     not entered. Ties are broken by the N, S, E, W expansion order, so runs
     are deterministic.
     """
@@ -43,7 +43,7 @@ def nearest(
                     continue
                 parent[v] = u
                 if accept(v, distance):
-                    return distance, _unwind(parent, start, v)
+                    return v, _unwind(parent, start, v)
                 nxt.append(v)
         frontier = nxt
     return None

@@ -56,6 +56,10 @@ class PlannerSettings:
     bm_rule: BmRule = BmRule.TIGHT
     #: Prefer targets that no other working agent is closer to.
     spread: bool = True
+    #: Decide afresh at every step of a transit (sweep from an uncovered cell
+    #: passed on the way, or take a target that has become nearer); the paper
+    #: travels to the chosen BTP.
+    replan_transit: bool = True
     #: Iterations an agent waits on another before asking it to make way.
     patience: int = 2
     #: Share of known free cells that are PRM nodes, and the connection radius in
