@@ -1,0 +1,315 @@
+"""The MAVLink mission protocol, ground side: upload, download, clear.
+
+Follows https://mavlink.io/en/services/mission.html with its default timeouts
+(1.5 s for an answer, 250 ms for an item, 5 retries) and what real vehicles do:
+
+- either request kind (MISSION_REQUEST_INT or ArduPilot's float
+  MISSION_REQUEST) is answered with MISSION_ITEM_INT;
+- requests are answered in whatever order they come; a duplicate request
+  already waiting in the inbox is answered once;
+- an error MISSION_ACK ends the transfer with ``MissionError(result=...)``,
+  except MAV_MISSION_INVALID_SEQUENCE mid-upload (ArduPilot NACKs an item it
+  did not ask for and goes on);
+- MAV_MISSION_NO_SPACE in answer to MISSION_COUNT (ArduPilot for its first
+  seconds after boot) is retried after a pause, saying what we wait for, until
+  ``no_space_wait_s`` has passed.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import time
+from collections.abc import Awaitable, Callable, Sequence
+from dataclasses import dataclass
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from vehicles.errors import MissionError, MissionTimeout
+from vehicles.mission_items import MISSION, MissionItem
+from vehicles.router import Inbox, Message, MessageRouter, send_and_wait
+
+log = logging.getLogger(__name__)
+
+_REQUESTS = frozenset({"MISSION_REQUEST", "MISSION_REQUEST_INT"})
+_ITEMS = frozenset({"MISSION_ITEM", "MISSION_ITEM_INT"})
+_ACCEPTED = mavlink.MAV_MISSION_ACCEPTED
+
+
+@dataclass(frozen=True)
+class MissionSettings:
+    timeout_s: float = 1.5
+    item_timeout_s: float = 0.25
+    retries: int = 5
+    #: Pause between uploads refused with MAV_MISSION_NO_SPACE.
+    no_space_retry_s: float = 2.0
+    #: Give up on MAV_MISSION_NO_SPACE after this long.
+    no_space_wait_s: float = 30.0
+
+
+@dataclass(frozen=True)
+class TransferReport:
+    """How a transfer went, for logs and tests."""
+
+    items: int
+    resends: int = 0
+    duplicate_requests: int = 0
+    float_requests: int = 0
+    no_space_waits: int = 0
+    nacks_ignored: int = 0
+    elapsed_s: float = 0.0
+
+
+class MissionClient:
+    def __init__(
+        self,
+        send: Callable[[Message], object],
+        router: MessageRouter,
+        target: Callable[[], tuple[int, int]],
+        settings: MissionSettings | None = None,
+        *,
+        on_wait: Callable[[str], None] | None = None,
+        pause: Callable[[float], Awaitable[None]] = asyncio.sleep,
+    ) -> None:
+        self._send = send
+        self._router = router
+        self._target = target
+        self.settings = settings or MissionSettings()
+        self.on_wait = on_wait
+        self._pause = pause
+        self._lock = asyncio.Lock()
+
+    # -- helpers ------------------------------------------------------------------------
+
+    def _from_target(self, types: frozenset[str], mission_type: int) -> Callable[[Message], bool]:
+        system, _ = self._target()
+
+        def match(msg: Message) -> bool:
+            return (
+                msg.get_type() in types
+                and msg.get_srcSystem() == system
+                and getattr(msg, "mission_type", MISSION) == mission_type
+            )
+
+        return match
+
+    def _tell_wait(self, text: str) -> None:
+        log.warning("%s", text)
+        if self.on_wait is not None:
+            self.on_wait(text)
+
+    def _ack(self, result: int, mission_type: int) -> Message:
+        system, component = self._target()
+        return mavlink.MAVLink_mission_ack_message(system, component, result, mission_type)
+
+    # -- upload -------------------------------------------------------------------------
+
+    async def upload(
+        self, items: Sequence[MissionItem], mission_type: int = MISSION
+    ) -> TransferReport:
+        """Send ``items`` (seq 0..n-1; on ArduPilot item 0 is home)."""
+        for expected, item in enumerate(items):
+            if item.seq != expected:
+                raise ValueError(f"item {expected} has seq {item.seq}; renumber first")
+        async with self._lock:
+            return await self._upload(list(items), mission_type)
+
+    async def _upload(self, items: list[MissionItem], mission_type: int) -> TransferReport:
+        s = self.settings
+        start = time.monotonic()
+        system, component = self._target()
+        count_msg = mavlink.MAVLink_mission_count_message(
+            system, component, len(items), mission_type
+        )
+        counters = dict.fromkeys(
+            ("resends", "duplicate_requests", "float_requests", "no_space_waits", "nacks_ignored"),
+            0,
+        )
+        match = self._from_target(_REQUESTS | {"MISSION_ACK"}, mission_type)
+        async with self._router.inbox(match) as inbox:
+            self._send(count_msg)
+            last_sent: Message = count_msg
+            highest_sent = -1
+            retries_left = s.retries
+            no_space_since: float | None = None
+            while True:
+                try:
+                    msg = await inbox.get(s.timeout_s)
+                except TimeoutError:
+                    if retries_left == 0:
+                        raise MissionTimeout(
+                            "upload",
+                            f"no answer from the vehicle after {s.retries} resends "
+                            f"of {s.timeout_s:g} s",
+                            seq=highest_sent + 1,
+                        ) from None
+                    retries_left -= 1
+                    counters["resends"] += 1
+                    self._send(last_sent)
+                    continue
+
+                if msg.get_type() == "MISSION_ACK":
+                    result = msg.type
+                    if result == _ACCEPTED:
+                        if highest_sent == len(items) - 1:
+                            return TransferReport(
+                                len(items), elapsed_s=time.monotonic() - start, **counters
+                            )
+                        raise MissionError(
+                            "upload",
+                            f"vehicle ended the upload after item {highest_sent} of {len(items)}",
+                            seq=highest_sent + 1,
+                        )
+                    if result == mavlink.MAV_MISSION_NO_SPACE and highest_sent < 0:
+                        now = time.monotonic()
+                        no_space_since = now if no_space_since is None else no_space_since
+                        if now - no_space_since >= s.no_space_wait_s:
+                            raise MissionError(
+                                "upload",
+                                f"vehicle still has no space after {s.no_space_wait_s:g} s",
+                                result=result,
+                            )
+                        counters["no_space_waits"] += 1
+                        self._tell_wait(
+                            f"system {system} refuses the mission with MAV_MISSION_NO_SPACE "
+                            f"(ArduPilot does so for its first seconds after boot); "
+                            f"retrying in {s.no_space_retry_s:g} s"
+                        )
+                        await self._pause(s.no_space_retry_s)
+                        _drain(inbox)
+                        self._send(count_msg)
+                        last_sent = count_msg
+                        retries_left = s.retries
+                        continue
+                    if result == mavlink.MAV_MISSION_INVALID_SEQUENCE and highest_sent >= 0:
+                        counters["nacks_ignored"] += 1
+                        log.debug("ignoring MAV_MISSION_INVALID_SEQUENCE mid-upload")
+                        continue
+                    raise MissionError(
+                        "upload",
+                        "vehicle refused the mission",
+                        result=result,
+                        seq=highest_sent + 1 if highest_sent + 1 < len(items) else None,
+                    )
+
+                # MISSION_REQUEST or MISSION_REQUEST_INT
+                seq = msg.seq
+                if not 0 <= seq < len(items):
+                    log.warning("vehicle asked for item %d of %d; ignored", seq, len(items))
+                    continue
+                if msg.get_type() == "MISSION_REQUEST":
+                    counters["float_requests"] += 1
+                counters["duplicate_requests"] += _drop_queued_requests(inbox, seq)
+                last_sent = items[seq].with_seq(seq).to_message(system, component)
+                if mission_type != MISSION:
+                    last_sent.mission_type = mission_type
+                self._send(last_sent)
+                highest_sent = max(highest_sent, seq)
+                retries_left = s.retries
+
+    # -- download -----------------------------------------------------------------------
+
+    async def download(self, mission_type: int = MISSION) -> list[MissionItem]:
+        """Read the vehicle's mission (item 0 is home on ArduPilot)."""
+        async with self._lock:
+            return await self._download(mission_type)
+
+    async def _download(self, mission_type: int) -> list[MissionItem]:
+        s = self.settings
+        system, component = self._target()
+        match = self._from_target(_ITEMS | {"MISSION_COUNT", "MISSION_ACK"}, mission_type)
+
+        def refuse_on_error_ack(msg: Message) -> None:
+            if msg.get_type() == "MISSION_ACK" and msg.type != _ACCEPTED:
+                raise MissionError("download", "vehicle refused", result=msg.type)
+
+        def accept_count(msg: Message) -> int | None:
+            refuse_on_error_ack(msg)
+            return msg.count if msg.get_type() == "MISSION_COUNT" else None
+
+        async with self._router.inbox(match) as inbox:
+            request_list = mavlink.MAVLink_mission_request_list_message(
+                system, component, mission_type
+            )
+            try:
+                count = await send_and_wait(
+                    lambda: self._send(request_list),
+                    inbox,
+                    accept_count,
+                    timeout_s=s.timeout_s,
+                    retries=s.retries,
+                )
+            except TimeoutError:
+                raise MissionTimeout("download", "no MISSION_COUNT from the vehicle") from None
+
+            items: list[MissionItem] = []
+            for seq in range(count):
+                request = mavlink.MAVLink_mission_request_int_message(
+                    system, component, seq, mission_type
+                )
+
+                def accept_item(msg: Message, seq: int = seq) -> MissionItem | None:
+                    refuse_on_error_ack(msg)
+                    if msg.get_type() in _ITEMS and msg.seq == seq:
+                        return MissionItem.from_message(msg)
+                    return None  # a duplicate, a late item or a repeated count
+
+                try:
+                    item = await send_and_wait(
+                        lambda request=request: self._send(request),
+                        inbox,
+                        accept_item,
+                        timeout_s=s.item_timeout_s,
+                        retries=s.retries,
+                    )
+                except TimeoutError:
+                    raise MissionTimeout(
+                        "download", "vehicle stopped sending items", seq=seq
+                    ) from None
+                items.append(item)
+            self._send(self._ack(_ACCEPTED, mission_type))
+            return items
+
+    # -- clear --------------------------------------------------------------------------
+
+    async def clear(self, mission_type: int = MISSION) -> None:
+        async with self._lock:
+            s = self.settings
+            system, component = self._target()
+            clear = mavlink.MAVLink_mission_clear_all_message(system, component, mission_type)
+
+            def accept(msg: Message) -> int:
+                if msg.type != _ACCEPTED:
+                    raise MissionError("clear", "vehicle refused", result=msg.type)
+                return msg.type
+
+            match = self._from_target(frozenset({"MISSION_ACK"}), mission_type)
+            async with self._router.inbox(match) as inbox:
+                try:
+                    await send_and_wait(
+                        lambda: self._send(clear),
+                        inbox,
+                        accept,
+                        timeout_s=s.timeout_s,
+                        retries=s.retries,
+                    )
+                except TimeoutError:
+                    raise MissionTimeout("clear", "no MISSION_ACK from the vehicle") from None
+
+
+def _drop_queued_requests(inbox: Inbox, seq: int) -> int:
+    """Drop requests for ``seq`` already waiting (duplicates); keep the rest in order."""
+    kept, dropped = [], 0
+    while (msg := inbox.get_nowait()) is not None:
+        if msg.get_type() in _REQUESTS and msg.seq == seq:
+            dropped += 1
+        else:
+            kept.append(msg)
+    for msg in kept:
+        inbox.offer(msg)
+    return dropped
+
+
+def _drain(inbox: Inbox) -> None:
+    while inbox.get_nowait() is not None:
+        pass

@@ -1,0 +1,64 @@
+"""MAVLink 2 message signing: one 32-byte secret key per vehicle.
+
+We sign everything we send once a key is set. Incoming messages must be
+signed with the same key when ``require_signed`` is true; otherwise unsigned
+messages are accepted too (but a message signed with a wrong key never is).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from dataclasses import dataclass
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+KEY_LEN = 32
+#: Signing timestamps count 10 µs ticks since 2015-01-01 00:00:00 UTC.
+_SIGNING_EPOCH_UNIX_S = 1_420_070_400
+
+
+@dataclass(frozen=True)
+class SigningConfig:
+    key: bytes
+    link_id: int = 0
+    require_signed: bool = False
+
+    def __post_init__(self) -> None:
+        if len(self.key) != KEY_LEN:
+            raise ValueError(f"signing key must be {KEY_LEN} bytes, got {len(self.key)}")
+        if not 0 <= self.link_id <= 255:
+            raise ValueError(f"link_id must be 0..255, got {self.link_id}")
+
+    @classmethod
+    def from_passphrase(cls, passphrase: str, **kwargs: object) -> SigningConfig:
+        """The key MAVProxy's ``signing setup PASSPHRASE`` derives (SHA-256 of it)."""
+        return cls(key=hashlib.sha256(passphrase.encode()).digest(), **kwargs)  # type: ignore[arg-type]
+
+    @classmethod
+    def from_hex(cls, text: str, **kwargs: object) -> SigningConfig:
+        return cls(key=bytes.fromhex(text), **kwargs)  # type: ignore[arg-type]
+
+
+def signing_timestamp(unix_s: float | None = None) -> int:
+    """A signing timestamp for ``unix_s`` (now by default)."""
+    t = time.time() if unix_s is None else unix_s
+    return max(0, int((t - _SIGNING_EPOCH_UNIX_S) * 100_000))
+
+
+def _accept_unsigned(_codec: mavlink.MAVLink, _msg_id: int) -> bool:
+    return True
+
+
+def apply_signing(codec: mavlink.MAVLink, config: SigningConfig | None) -> None:
+    """Configure ``codec`` to sign with ``config`` (or to stop signing when ``None``)."""
+    if config is None:
+        codec.signing.secret_key = None
+        codec.signing.sign_outgoing = False
+        codec.signing.allow_unsigned_callback = None
+        return
+    codec.signing.secret_key = config.key
+    codec.signing.link_id = config.link_id
+    codec.signing.sign_outgoing = True
+    codec.signing.timestamp = max(codec.signing.timestamp, signing_timestamp())
+    codec.signing.allow_unsigned_callback = None if config.require_signed else _accept_unsigned

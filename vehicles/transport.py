@@ -1,0 +1,325 @@
+"""An asyncio MAVLink 2 transport over UDP or TCP, with pymavlink as codec only.
+
+One connection = one parser and one bounded queue of decoded messages. A
+datagram protocol (UDP) or one reader task per TCP connection parses incoming
+bytes and puts messages into the queue; when the queue is full the oldest
+message is dropped (telemetry is periodic, so fresh beats complete). Garbage,
+CRC errors and bad signatures are counted, never raised.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+from collections.abc import AsyncIterator, Callable
+from dataclasses import dataclass
+from typing import Any
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from vehicles.endpoints import Endpoint, EndpointKind, parse_endpoint
+from vehicles.errors import LinkError, TransportClosed
+from vehicles.signing import SigningConfig, apply_signing
+
+log = logging.getLogger(__name__)
+
+GCS_SYSTEM_ID = 255
+GCS_COMPONENT_ID = mavlink.MAV_COMP_ID_MISSIONPLANNER  # 190
+DEFAULT_QUEUE_SIZE = 1000
+TCP_RECONNECT_S = 0.5
+
+#: A tap sees every frame: ("in" | "out", raw bytes, decoded message).
+Tap = Callable[[str, bytes, mavlink.MAVLink_message], None]
+
+Address = tuple[str, int]
+
+
+@dataclass
+class TransportStats:
+    """Counters of one transport; read them for diagnostics, they never raise."""
+
+    frames_in: int = 0
+    frames_out: int = 0
+    bytes_in: int = 0
+    bytes_out: int = 0
+    bad_frames: int = 0
+    bad_signatures: int = 0
+    unknown_messages: int = 0
+    dropped_in: int = 0
+    unsent: int = 0
+    reconnects: int = 0
+
+
+class MavlinkTransport:
+    """Send and receive MAVLink messages on one endpoint.
+
+    Use ``await MavlinkTransport.open("udpin:127.0.0.1:14550")`` or ``async with``.
+    ``recv()`` (or ``async for``) gives decoded messages from any system on the
+    endpoint; ``send(msg)`` packs with our system/component id (and signature).
+    A ``udpin`` transport is silent (``send`` counts ``unsent``) until it has
+    heard someone, and then replies to the last sender.
+    """
+
+    def __init__(
+        self,
+        endpoint: Endpoint,
+        *,
+        source_system: int = GCS_SYSTEM_ID,
+        source_component: int = GCS_COMPONENT_ID,
+        signing: SigningConfig | None = None,
+        queue_size: int = DEFAULT_QUEUE_SIZE,
+    ) -> None:
+        self.endpoint = endpoint
+        self.codec = mavlink.MAVLink(None, source_system, source_component)
+        self.codec.robust_parsing = True
+        apply_signing(self.codec, signing)
+        self.stats = TransportStats()
+        self._queue: asyncio.Queue[mavlink.MAVLink_message] = asyncio.Queue(queue_size)
+        self._taps: list[Tap] = []
+        self._closed = asyncio.Event()
+        self._datagram: asyncio.DatagramTransport | None = None
+        self._writer: asyncio.StreamWriter | None = None
+        self._server: asyncio.Server | None = None
+        self._tasks: set[asyncio.Task[None]] = set()
+        self.peer: Address | None = None
+
+    # -- life cycle -----------------------------------------------------------------
+
+    @classmethod
+    async def open(
+        cls, endpoint: str | Endpoint, *, allow_remote: bool = False, **kwargs: Any
+    ) -> MavlinkTransport:
+        if isinstance(endpoint, str):
+            endpoint = parse_endpoint(endpoint, allow_remote=allow_remote)
+        transport = cls(endpoint, **kwargs)
+        try:
+            await transport._start()
+        except OSError as exc:
+            await transport.close()
+            raise LinkError(f"cannot open {endpoint}: {exc}") from exc
+        return transport
+
+    async def _start(self) -> None:
+        loop = asyncio.get_running_loop()
+        ep = self.endpoint
+        if ep.kind is EndpointKind.UDP_IN:
+            self._datagram, _ = await loop.create_datagram_endpoint(
+                lambda: _DatagramProtocol(self), local_addr=(ep.host, ep.port)
+            )
+        elif ep.kind is EndpointKind.UDP_OUT:
+            local = "127.0.0.1" if ep.is_loopback else "0.0.0.0"
+            self._datagram, _ = await loop.create_datagram_endpoint(
+                lambda: _DatagramProtocol(self), local_addr=(local, 0)
+            )
+            self.peer = (ep.host, ep.port)
+        elif ep.kind is EndpointKind.TCP:
+            reader, writer = await asyncio.open_connection(ep.host, ep.port)
+            self._attach_stream(reader, writer, reconnect=True)
+        elif ep.kind is EndpointKind.TCP_IN:
+            self._server = await asyncio.start_server(
+                lambda r, w: self._attach_stream(r, w, reconnect=False), ep.host, ep.port
+            )
+
+    async def close(self) -> None:
+        if self._closed.is_set():
+            return
+        self._closed.set()
+        if self._datagram is not None:
+            self._datagram.close()
+        if self._writer is not None:
+            self._writer.close()
+        if self._server is not None:
+            self._server.close()
+        for task in list(self._tasks):
+            task.cancel()
+        for task in list(self._tasks):
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await task
+        if self._server is not None:
+            with contextlib.suppress(Exception):
+                await self._server.wait_closed()
+
+    @property
+    def closed(self) -> bool:
+        return self._closed.is_set()
+
+    @property
+    def local_address(self) -> Address | None:
+        """The bound address (useful with port 0)."""
+        if self._datagram is not None:
+            return self._datagram.get_extra_info("sockname")[:2]
+        if self._server is not None and self._server.sockets:
+            return self._server.sockets[0].getsockname()[:2]
+        return None
+
+    async def __aenter__(self) -> MavlinkTransport:
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.close()
+
+    # -- sending ----------------------------------------------------------------------
+
+    def add_tap(self, tap: Tap) -> None:
+        """Call ``tap`` for every frame in and out (raw traffic logging)."""
+        self._taps.append(tap)
+
+    def send(self, msg: mavlink.MAVLink_message) -> bool:
+        """Pack and send ``msg``; false when there is nobody to send to yet."""
+        if self.closed:
+            raise TransportClosed(f"{self.endpoint} is closed")
+        buf = bytes(msg.pack(self.codec))
+        self.codec.seq = (self.codec.seq + 1) % 256
+        sent = self._write(buf)
+        if not sent:
+            self.stats.unsent += 1
+            return False
+        self.stats.frames_out += 1
+        self.stats.bytes_out += len(buf)
+        self._run_taps("out", buf, msg)
+        return True
+
+    def _write(self, buf: bytes) -> bool:
+        if self._datagram is not None:
+            if self.peer is None or self._datagram.is_closing():
+                return False
+            self._datagram.sendto(buf, self.peer)
+            return True
+        if self._writer is not None and not self._writer.is_closing():
+            self._writer.write(buf)
+            return True
+        return False
+
+    # -- receiving ------------------------------------------------------------------
+
+    async def recv(self) -> mavlink.MAVLink_message:
+        """The next message; raises ``TransportClosed`` once closed."""
+        if not self._queue.empty():
+            return self._queue.get_nowait()
+        if self.closed:
+            raise TransportClosed(f"{self.endpoint} is closed")
+        getter = asyncio.ensure_future(self._queue.get())
+        closer = asyncio.ensure_future(self._closed.wait())
+        try:
+            await asyncio.wait({getter, closer}, return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            closer.cancel()
+            if not getter.done():
+                getter.cancel()
+        if getter.done() and not getter.cancelled():
+            return getter.result()
+        raise TransportClosed(f"{self.endpoint} is closed")
+
+    async def __aiter__(self) -> AsyncIterator[mavlink.MAVLink_message]:
+        while True:
+            try:
+                yield await self.recv()
+            except TransportClosed:
+                return
+
+    def _feed(self, data: bytes, *, whole_frames: bool = False) -> None:
+        """Parse ``data`` and queue every good message (called by the readers).
+
+        ``whole_frames``: ``data`` is a datagram, which holds whole frames only,
+        so a truncated frame left at its end is garbage, not the start of the next."""
+        self.stats.bytes_in += len(data)
+        try:
+            msgs = self.codec.parse_buffer(data) or []
+        except Exception as exc:  # pymavlink raises a few things; never let them out
+            log.debug("%s: unparsable data: %s", self.endpoint, exc)
+            self.stats.bad_frames += 1
+            self._reset_parser()
+            return
+        for msg in msgs:
+            self._accept(msg)
+        if whole_frames and self.codec.buf_len() > 0:
+            self.stats.bad_frames += 1
+            self._reset_parser()
+
+    def _accept(self, msg: mavlink.MAVLink_message) -> None:
+        if isinstance(msg, mavlink.MAVLink_bad_data):
+            if "signature" in str(msg.reason).lower():
+                self.stats.bad_signatures += 1
+            else:
+                self.stats.bad_frames += 1
+            return
+        if isinstance(msg, mavlink.MAVLink_unknown):
+            self.stats.unknown_messages += 1
+            return
+        self.stats.frames_in += 1
+        self._run_taps("in", bytes(msg.get_msgbuf()), msg)
+        if self._queue.full():
+            self._queue.get_nowait()
+            self.stats.dropped_in += 1
+        self._queue.put_nowait(msg)
+
+    def _reset_parser(self) -> None:
+        self.codec.buf = bytearray()
+        self.codec.buf_index = 0
+        self.codec.expected_length = mavlink.HEADER_LEN_V1 + 2
+
+    def _run_taps(self, direction: str, buf: bytes, msg: mavlink.MAVLink_message) -> None:
+        for tap in self._taps:
+            try:
+                tap(direction, buf, msg)
+            except Exception:
+                log.exception("transport tap failed")
+
+    # -- TCP ------------------------------------------------------------------------
+
+    def _attach_stream(
+        self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter, *, reconnect: bool
+    ) -> None:
+        if self.closed:
+            writer.close()
+            return
+        if self._writer is not None:  # tcpin: the newest client replaces the old one
+            self._writer.close()
+        self._writer = writer
+        self._reset_parser()
+        task = asyncio.get_running_loop().create_task(self._read_stream(reader, reconnect))
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    async def _read_stream(self, reader: asyncio.StreamReader, reconnect: bool) -> None:
+        try:
+            while data := await reader.read(65536):
+                self._feed(data)
+        except (ConnectionError, OSError) as exc:
+            log.info("%s: connection lost: %s", self.endpoint, exc)
+        if reconnect and not self.closed:
+            await self._reconnect()
+
+    async def _reconnect(self) -> None:
+        """Reconnect a TCP client until it succeeds or the transport is closed."""
+        while not self.closed:
+            try:
+                async with asyncio.timeout(TCP_RECONNECT_S):
+                    await self._closed.wait()
+                return
+            except TimeoutError:
+                pass
+            try:
+                reader, writer = await asyncio.open_connection(
+                    self.endpoint.host, self.endpoint.port
+                )
+            except OSError:
+                continue
+            self.stats.reconnects += 1
+            self._attach_stream(reader, writer, reconnect=True)
+            return
+
+
+class _DatagramProtocol(asyncio.DatagramProtocol):
+    def __init__(self, owner: MavlinkTransport) -> None:
+        self.owner = owner
+
+    def datagram_received(self, data: bytes, addr: Address) -> None:
+        if self.owner.endpoint.kind is EndpointKind.UDP_IN:
+            self.owner.peer = (addr[0], addr[1])
+        self.owner._feed(data, whole_frames=True)
+
+    def error_received(self, exc: Exception) -> None:
+        # ICMP port unreachable and the like: the peer is not there (yet).
+        log.debug("%s: %s", self.owner.endpoint, exc)
