@@ -141,5 +141,3 @@ def write_outputs(result: RunResult, out: Path) -> None:
         raise UsageError(f"--out: cannot create {out}: {exc.strerror}") from exc
     write_report(result, out)
     write_figures(result, out)
-
-

@@ -1,0 +1,260 @@
+"""``gcs bench``: benchmarks that measure and print figures (never timed tests).
+
+``gcs bench paper`` reproduces the paper's Table 1 (scenario 1 with 1 to 11
+agents: charges, iterations, compute time per step) and Table 2 (the 30x30
+comparison with NB-MSTC and BoB, 4 agents, no battery limit) on our maps,
+beside the paper's figures, with the normalised ratios of ALGORITHM.md so
+that maps of slightly different size compare fairly.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+from dataclasses import dataclass
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
+from gcs.mission import Mission, MissionError, load_mission
+from gcs.result import RunResult
+from gcs.simulate import SimOptions, planner_settings, simulate
+from planner.settings import BmRule, PlannerSettings, TargetPolicy
+
+MISSIONS = Path(__file__).resolve().parents[2] / "missions"
+
+#: The paper's Table 1 (scenario 1, 2068 m2): agents -> (charges per agent, s per step, iterations).
+PAPER_TABLE1 = {
+    1: (22, 0.13, 2365),
+    3: (7, 0.36, 804),
+    5: (5, 0.59, 491),
+    7: (3, 0.81, 363),
+    9: (3, 1.09, 314),
+    11: (2, 1.39, 259),
+}
+PAPER_SCENARIO1_FREE = 2068
+#: The paper's Table 2 (30x30, 4 agents): method -> path per agent (m), complete.
+PAPER_TABLE2 = {
+    "NB-MSTC": ((172, 400, 24, 21), False),
+    "BoB": ((199, 215, 224, 233), True),
+    "paper": ((171, 187, 178, 180), True),
+}
+
+
+@dataclass(frozen=True)
+class Strategy:
+    name: str
+    overrides: dict[str, object]
+
+
+#: Our default planner, and the paper's rules run by our code, for comparison.
+STRATEGIES = (
+    Strategy("ours", {}),
+    Strategy(
+        "paper rules",
+        {
+            "bm_rule": BmRule.PAPER,
+            "target_policy": TargetPolicy.OWN_FIRST,
+            "spread": False,
+            "replan_transit": False,
+        },
+    ),
+)
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser(
+        "bench",
+        help="benchmarks: reproduce the paper's tables",
+        description="Benchmarks that measure and print figures.",
+    )
+    which = p.add_subparsers(dest="bench", metavar="BENCH", required=True)
+    paper = which.add_parser(
+        "paper",
+        help="the paper's Table 1 (scenario1, 1-11 agents) and Table 2 (bob30, 4 agents)",
+        description=(
+            "Run scenario1 with 1, 3, 5, 7, 9 and 11 agents and bob30 with 4 agents (no "
+            "battery limit), and print our figures beside the paper's, with normalised "
+            "ratios: total path / (free - 1), makespan / ceil((free - 1) / agents), "
+            "iterations x agents / free."
+        ),
+    )
+    paper.add_argument("--missions", type=Path, default=MISSIONS, help="folder with the missions")
+    paper.add_argument(
+        "--agents", type=int, nargs="+", default=sorted(PAPER_TABLE1), help="Table 1 fleet sizes"
+    )
+    paper.add_argument("--json", type=Path, help="also write the figures as JSON to this file")
+    paper.set_defaults(func=run_paper)
+
+
+def _load(path: Path) -> Mission:
+    try:
+        return load_mission(path)
+    except MissionError as exc:
+        raise UsageError(str(exc)) from exc
+
+
+def _settings(mission: Mission, strategy: Strategy) -> PlannerSettings:
+    return planner_settings(mission, 0, **strategy.overrides)
+
+
+def normalised(result: RunResult) -> dict[str, float]:
+    agents = len(result.agents)
+    work = max(1, result.free_cells - 1)
+    return {
+        "path_ratio": result.total_path_m / result.cell_size_m / work,
+        "makespan_ratio": result.makespan_m / result.cell_size_m / math.ceil(work / agents),
+        "iteration_ratio": result.iterations * agents / max(1, result.free_cells),
+    }
+
+
+def wide_console() -> Console:
+    """Tables of many columns: wide enough when the output is a file or a pipe."""
+    console = Console()
+    return console if console.is_terminal else Console(width=200)
+
+
+def run_paper(args: argparse.Namespace) -> int:
+    console = wide_console()
+    scenario = _load(args.missions / "scenario1.yaml")
+    bob = _load(args.missions / "bob30.yaml")
+    figures: dict[str, object] = {"machine": platform.processor() or platform.machine()}
+    ok = True
+
+    energy = scenario.fleet[0].energy_per_m_pct if scenario.fleet else 0.0
+    table1 = Table(
+        title=(
+            f"Table 1: {scenario.name}, {scenario.map.reachable().sum()} free cells "
+            f"(paper {PAPER_SCENARIO1_FREE} m2), energy {energy} %/m, reserve "
+            f"{scenario.planner.reserve_pct:g} %"
+        )
+    )
+    for column in (
+        "agents",
+        "strategy",
+        "charges/agent",
+        "paper",
+        "iterations",
+        "paper",
+        "iter x agents / free",
+        "paper",
+        "path / (free-1)",
+        "makespan ratio",
+        "ms / step",
+        "paper s / step",
+        "us / agent-step",
+        "complete",
+        "lost",
+    ):
+        table1.add_column(column, justify="right")
+    rows1 = []
+    for n in args.agents:
+        mission = scenario.with_agents(n)
+        for strategy in STRATEGIES:
+            result = simulate(mission, SimOptions(settings=_settings(mission, strategy)))
+            ok &= result.complete
+            norm = normalised(result)
+            charges = sum(a.charges for a in result.agents) / n
+            paper = PAPER_TABLE1.get(n)
+            ms_step = 1e3 * result.planner_s / max(1, result.extra.get("total_iterations", 1))
+            us_agent_step = (
+                1e6 * result.planner_s / max(1, int(result.extra.get("total_iterations", 1)) * n)
+            )
+            paper_iter_ratio = paper[2] * n / PAPER_SCENARIO1_FREE if paper else None
+            table1.add_row(
+                str(n),
+                strategy.name,
+                f"{charges:.1f}",
+                str(paper[0]) if paper else "-",
+                str(result.iterations),
+                str(paper[2]) if paper else "-",
+                f"{norm['iteration_ratio']:.3f}",
+                f"{paper_iter_ratio:.3f}" if paper_iter_ratio else "-",
+                f"{norm['path_ratio']:.3f}",
+                f"{norm['makespan_ratio']:.3f}",
+                f"{ms_step:.3f}",
+                f"{paper[1]:.2f}" if paper else "-",
+                f"{us_agent_step:.1f}",
+                "yes" if result.complete else "[red]NO[/]",
+                str(result.lost_agents),
+            )
+            rows1.append(
+                {
+                    "agents": n,
+                    "strategy": strategy.name,
+                    "charges_per_agent": charges,
+                    "iterations": result.iterations,
+                    "planner_s": result.planner_s,
+                    "us_per_agent_step": us_agent_step,
+                    "complete": result.complete,
+                    "lost": result.lost_agents,
+                    "btps_detected": result.extra.get("btps_detected"),
+                    "safety_net_fires": result.safety_net_fires,
+                    **norm,
+                }
+            )
+    console.print(table1)
+    figures["table1"] = rows1
+
+    table2 = Table(title=f"Table 2: {bob.name}, 4 agents, no battery limit")
+    for column in (
+        "method",
+        "agent paths (m)",
+        "total (m)",
+        "path / (free-1)",
+        "longest/shortest",
+        "complete",
+        "BTPs",
+        "safety net",
+    ):
+        table2.add_column(column, justify="right")
+    bob_free = int(bob.map.reachable().sum())
+    for method, (paths, complete) in PAPER_TABLE2.items():
+        table2.add_row(
+            f"{method} (paper's figures)",
+            " / ".join(map(str, paths)),
+            str(sum(paths)),
+            f"{sum(paths) / (bob_free - 1):.3f}*",
+            f"{max(paths) / min(paths):.2f}",
+            "yes" if complete else "no",
+            "-",
+            "-",
+        )
+    rows2 = []
+    mission = bob.with_agents(4)
+    for strategy in STRATEGIES:
+        result = simulate(mission, SimOptions(settings=_settings(mission, strategy)))
+        ok &= result.complete
+        paths = [a.path_m for a in result.agents]
+        table2.add_row(
+            f"{strategy.name} (ours)",
+            " / ".join(f"{p:.0f}" for p in paths),
+            f"{result.total_path_m:.0f}",
+            f"{normalised(result)['path_ratio']:.3f}",
+            f"{max(paths) / max(1e-9, min(paths)):.2f}",
+            "yes" if result.complete else "[red]NO[/]",
+            str(result.extra.get("btps_detected")),
+            str(result.safety_net_fires),
+        )
+        rows2.append(
+            {
+                "strategy": strategy.name,
+                "paths_m": paths,
+                "total_m": result.total_path_m,
+                "balance": max(paths) / max(1e-9, min(paths)),
+                "complete": result.complete,
+                **normalised(result),
+            }
+        )
+    console.print(table2)
+    console.print(
+        f"* the paper's map is not published; its ratios use our map's {bob_free} free cells."
+    )
+    figures["table2"] = rows2
+    if args.json:
+        args.json.write_text(json.dumps(figures, indent=2))
+    return EXIT_OK if ok else EXIT_FAILED

@@ -1,0 +1,129 @@
+"""Properties of the planner over random connected maps and fleets of 1-8 agents."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from gcs.simulate import SimOptions, planner_settings, simulate
+from planner.coordinator import PlannerEvent
+from planner.grid import NEIGHBOURS
+from planner.settings import BmRule, PathPlannerKind, TargetPolicy
+from sitl_mock import mapgen
+from sitl_mock.gridmap import GridMap
+from tests.checks import check_run, make_mission
+
+KINDS = {
+    "bars": lambda h, w, seed: mapgen.bars(h, w, count=max(1, h * w // 70), seed=seed),
+    "rooms": lambda h, w, seed: mapgen.rooms(h, w, seed),
+    "caves": lambda h, w, seed: mapgen.caves(h, w, seed),
+    "branching": lambda h, w, seed: mapgen.branching(h, w, seed),
+}
+
+maps = st.builds(
+    lambda kind, h, w, seed: KINDS[kind](h, w, seed),
+    st.sampled_from(sorted(KINDS)),
+    st.integers(14, 30),
+    st.integers(14, 30),
+    st.integers(0, 10_000),
+)
+
+PROPERTY = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+
+
+def run_checked(mission, settings_=None):
+    events: list[tuple[int, PlannerEvent]] = []
+    result = simulate(mission, SimOptions(settings=settings_), events=events)
+    check_run(result, mission.map, events)
+    return result
+
+
+@PROPERTY
+@given(grid=maps, agents=st.integers(1, 8))
+def test_complete_and_safe_without_battery_limit(grid: GridMap, agents: int) -> None:
+    run_checked(make_mission(grid, agents))
+
+
+def _energy_for(grid: GridMap, headroom: float) -> float:
+    """An energy per metre that leaves ``headroom`` of the usable battery beyond
+    the round trip to the farthest cell (so every cell is in range)."""
+    from gcs.preflight import charger_distances
+    from tests.checks import make_mission as mk
+
+    far = int(charger_distances(mk(grid, 1)).max())
+    return 80.0 / (2 * far * (1 + headroom)) if far else 1.0
+
+
+@PROPERTY
+@given(
+    grid=maps,
+    agents=st.integers(1, 8),
+    headroom=st.floats(0.05, 2.0),
+    charge=st.sampled_from([None, 5.0, 25.0]),
+    slots=st.sampled_from([None, 1, 2]),
+)
+def test_staying_alive_with_battery_limits(
+    grid: GridMap, agents: int, headroom: float, charge: float | None, slots: int | None
+) -> None:
+    mission = make_mission(
+        grid, agents, _energy_for(grid, headroom), charge_pct_per_step=charge, charging_slots=slots
+    )
+    result = run_checked(mission)
+    assert result.out_of_range_cells == 0
+
+
+small_maps = st.builds(
+    lambda kind, h, w, seed: KINDS[kind](h, w, seed),
+    st.sampled_from(sorted(KINDS)),
+    st.integers(12, 20),
+    st.integers(12, 20),
+    st.integers(0, 10_000),
+)
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    grid=small_maps,
+    agents=st.integers(1, 5),
+    bm=st.sampled_from(list(BmRule)),
+    targets=st.sampled_from(list(TargetPolicy)),
+    spread=st.booleans(),
+    replan=st.booleans(),
+    prm=st.booleans(),
+)
+def test_every_strategy_keeps_the_invariants(grid, agents, bm, targets, spread, replan, prm):
+    mission = make_mission(grid, agents, _energy_for(grid, 0.5))
+    settings_ = planner_settings(
+        mission,
+        bm_rule=bm,
+        target_policy=targets,
+        spread=spread,
+        replan_transit=replan,
+    )
+    if prm:
+        settings_ = dataclasses.replace(settings_, path_planner=PathPlannerKind.PRM)
+    run_checked(mission, settings_)
+
+
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(grid=maps, agents=st.integers(1, 6), seed=st.integers(0, 2**31))
+def test_the_planner_never_sees_the_truth(grid: GridMap, agents: int, seed: int) -> None:
+    """Two worlds that agree on every cell any agent sensed give identical runs."""
+    first = simulate(make_mission(grid, agents))
+    sensed = np.zeros(grid.shape, dtype=bool)
+    for agent in first.agents:
+        for r, c in set(agent.track):
+            sensed[r, c] = True
+            for d in NEIGHBOURS:
+                nr, nc = d.of((r, c))
+                if 0 <= nr < grid.shape[0] and 0 <= nc < grid.shape[1]:
+                    sensed[nr, nc] = True
+    rng = np.random.default_rng(seed)
+    other = np.where(sensed, grid.obstacle, rng.random(grid.shape) < 0.5)
+    assert (other[sensed] == grid.obstacle[sensed]).all()
+    second = simulate(make_mission(dataclasses.replace(grid, obstacle=other), agents))
+    assert [a.track for a in second.agents] == [a.track for a in first.agents]
+    assert [a.battery_pct for a in second.agents] == [a.battery_pct for a in first.agents]

@@ -1,0 +1,256 @@
+"""Unit tests of the planner's parts: belief, BM, BTP rules, staying alive, paths."""
+
+from __future__ import annotations
+
+import itertools
+from collections import deque
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from planner import btp
+from planner.belief import UNREACHED, MapBelief
+from planner.coordinator import ActionKind, AgentMode, Coordinator
+from planner.grid import MOVES, NEIGHBOURS, Cell, CellState, Direction
+from planner.paths import bfs_distances, nearest, path_to_charger, shortest_path
+from planner.prm import Roadmap, line_cells
+from planner.settings import AgentSpec, BmRule, PathPlannerKind, PlannerSettings
+from sitl_mock import mapgen
+from sitl_mock.maps import parse_ascii
+
+FREE, OBST = CellState.FREE, CellState.OBSTACLE
+
+
+def sensing(grid_text: str):
+    """A world from ASCII and a function answering the 8 readings around a cell."""
+    grid = parse_ascii(grid_text)
+
+    def readings(cell: Cell) -> dict[Direction, CellState]:
+        return {d: FREE if grid.is_free(d.of(cell)) else OBST for d in NEIGHBOURS}
+
+    return grid, readings
+
+
+def known_belief(grid) -> MapBelief:
+    """A belief that knows the whole map (every free cell sensed)."""
+    belief = MapBelief(grid.shape, grid.charger)
+    for r in range(grid.shape[0]):
+        for c in range(grid.shape[1]):
+            i = belief.index((r, c))
+            if grid.obstacle[r, c]:
+                belief.state[i] = int(OBST)
+    order = sorted(
+        (cell for cell in np.argwhere(~grid.obstacle)),
+        key=lambda rc: abs(rc[0] - grid.charger[0]) + abs(rc[1] - grid.charger[1]),
+    )
+    for r, c in order:
+        belief.mark_free(belief.index((int(r), int(c))))
+    return belief
+
+
+def true_distances(grid, start: Cell) -> dict[Cell, int]:
+    dist = {start: 0}
+    queue = deque([start])
+    while queue:
+        cell = queue.popleft()
+        for d in MOVES:
+            nxt = d.of(cell)
+            if grid.is_free(nxt) and nxt not in dist:
+                dist[nxt] = dist[cell] + 1
+                queue.append(nxt)
+    return dist
+
+
+# -- belief --------------------------------------------------------------------
+
+
+def test_sensing_records_free_and_obstacle_cells_and_outside_is_obstacle() -> None:
+    grid, readings = sensing("###\n#.#\n#C#")
+    belief = MapBelief(grid.shape, grid.charger)
+    new = belief.sense((1, 1), readings((1, 1)))
+    assert new == []  # the only free neighbour is the charger, known from the start
+    assert belief.is_free((2, 1)) and belief.is_free((1, 1)) is False
+    belief.cover((1, 1), 0)
+    assert belief.is_free((1, 1)) and belief.is_covered((1, 1))
+    assert belief.state_of((0, 1)) == OBST
+    assert belief.state_of((-1, 0)) == OBST  # outside the map
+    assert belief.state_of((5, 5)) == OBST
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10_000), kind=st.sampled_from(["bars", "caves", "rooms"]))
+def test_incremental_charger_distances_equal_a_fresh_search(seed: int, kind: str) -> None:
+    grid = {"bars": mapgen.bars, "caves": mapgen.caves, "rooms": mapgen.rooms}[kind](
+        20, 24, seed=seed
+    )
+    belief = MapBelief(grid.shape, grid.charger)
+    rng = np.random.default_rng(seed)
+    cells = [tuple(map(int, rc)) for rc in np.argwhere(~grid.obstacle)]
+    rng.shuffle(cells)  # discovery in any order
+    for cell in cells:
+        belief.mark_free(belief.index(cell))
+    truth = true_distances(grid, grid.charger)
+    for cell in cells:
+        assert belief.distance_to_charger(cell) == truth.get(cell, UNREACHED)
+
+
+# -- paths -------------------------------------------------------------------
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10_000), pick=st.integers(0, 10_000))
+def test_shortest_path_length_equals_bfs_distance(seed: int, pick: int) -> None:
+    grid = mapgen.caves(24, 24, seed)
+    belief = known_belief(grid)
+    free = [tuple(map(int, rc)) for rc in np.argwhere(~grid.obstacle)]
+    start, goal = free[pick % len(free)], free[(pick * 7 + 3) % len(free)]
+    truth = true_distances(grid, start)
+    path = shortest_path(belief, belief.index(start), belief.index(goal))
+    assert path is not None
+    assert len(path) == truth[goal]
+    cells = [start] + [belief.cell(i) for i in path]
+    assert all(abs(a[0] - b[0]) + abs(a[1] - b[1]) == 1 for a, b in itertools.pairwise(cells))
+    assert all(grid.is_free(c) for c in cells)
+    home = path_to_charger(belief, belief.index(start))
+    assert home is not None and len(home) == true_distances(grid, grid.charger)[start]
+    assert bfs_distances(belief, belief.index(start))[belief.index(goal)] == truth[goal]
+
+
+def test_nearest_finds_the_closest_accepted_cell_and_respects_blocked_cells() -> None:
+    grid, _ = sensing("#######\n#.....#\n#.###.#\n#.....#\n###C###")
+    belief = known_belief(grid)
+    start = belief.index((3, 3))
+    goal, path = nearest(belief, start, lambda i, d: belief.cell(i) == (1, 3))
+    assert belief.cell(goal) == (1, 3) and len(path) == 6
+    blocked = {belief.index((3, 2)), belief.index((2, 1))}
+    goal, path = nearest(belief, start, lambda i, d: belief.cell(i) == (1, 1), blocked)
+    assert len(path) == 8 and belief.index((3, 2)) not in path
+
+
+def test_prm_paths_are_grid_moves_over_free_cells() -> None:
+    grid = mapgen.rooms(30, 30, 3)
+    belief = known_belief(grid)
+    roadmap = Roadmap(PlannerSettings(path_planner=PathPlannerKind.PRM, seed=1))
+    roadmap.grow(belief, [belief.index(tuple(map(int, rc))) for rc in np.argwhere(~grid.obstacle)])
+    free = [tuple(map(int, rc)) for rc in np.argwhere(~grid.obstacle)]
+    for k in range(0, len(free), max(1, len(free) // 12)):
+        start, goal = free[k], free[-1 - k]
+        path = roadmap.path(belief, belief.index(start), belief.index(goal))
+        assert path is not None and belief.cell(path[-1]) == goal
+        cells = [start] + [belief.cell(i) for i in path]
+        assert all(abs(a[0] - b[0]) + abs(a[1] - b[1]) == 1 for a, b in itertools.pairwise(cells))
+        assert len(path) >= true_distances(grid, start)[goal]
+    assert line_cells(belief, belief.index(free[0]), belief.index(free[0])) == []
+
+
+# -- boustrophedon motion and BTPs -------------------------------------------
+
+
+def test_bm_takes_north_first_then_south_east_west() -> None:
+    grid, readings = sensing("#######\n#.....#\n#.....#\n#.....#\n###C###")
+    coordinator = Coordinator(
+        grid.shape, grid.charger, [AgentSpec(1, 0.0)], PlannerSettings(bm_rule=BmRule.PAPER)
+    )
+    moves = []
+    cell = grid.charger
+    coordinator.observe(1, cell, readings(cell), 100.0)
+    for _ in range(8):
+        action = coordinator.decide(1)
+        assert action.kind == ActionKind.MOVE and action.to is not None
+        moves.append(Direction.between(cell, action.to))
+        cell = action.to
+        coordinator.observe(1, cell, readings(cell), 100.0)
+    n, s, e = Direction.N, Direction.S, Direction.E
+    assert moves == [n, n, n, e, s, s, e, n]
+
+
+def test_btp_is_a_side_opening_beside_a_wall() -> None:
+    # Moving north at (2, 2): west (2, 1) is free, south-west (3, 1) is a wall.
+    grid, readings = sensing("#####\n#...#\n#...#\n##..#\n##C##")
+    belief = MapBelief(grid.shape, grid.charger)
+    for cell in [(3, 2), (2, 2)]:
+        belief.sense(cell, readings(cell))
+        belief.cover(cell, 0)
+    found = {belief.cell(i) for i in btp.detect(belief, belief.index((2, 2)), Direction.N)}
+    assert found == {(2, 1)}
+    # An open side with no wall beside it is not a BTP (the sweep takes it).
+    grid2, readings2 = sensing("#####\n#...#\n#...#\n#...#\n##C##")
+    belief2 = MapBelief(grid2.shape, grid2.charger)
+    for cell in [(3, 2), (2, 2)]:
+        belief2.sense(cell, readings2(cell))
+        belief2.cover(cell, 0)
+    assert btp.detect(belief2, belief2.index((2, 2)), Direction.N) == []
+    # A covered side cell is not a BTP.
+    belief.cover((2, 1), 1)
+    assert btp.detect(belief, belief.index((2, 2)), Direction.N) == []
+
+
+def test_btp_stacks_local_global_and_removal() -> None:
+    stacks = btp.BtpStacks()
+    assert stacks.push(1, 10) and not stacks.push(2, 10)
+    stacks.push(2, 11)
+    assert list(stacks.own(1)) == [10] and len(stacks) == 2
+    stacks.release(2)
+    assert stacks.owner[11] == btp.BtpStacks.POOL
+    assert stacks.remove(10) and 10 not in stacks and not stacks.remove(10)
+
+
+# -- staying alive policy -------------------------------------------------------
+
+
+def corridor(length: int) -> tuple:
+    """A straight corridor north of the charger."""
+    rows = ["###"] + ["#.#"] * length + ["#C#"]
+    return sensing("\n".join(rows))
+
+
+def test_returns_to_charge_before_the_reserve_and_resumes_where_it_stopped() -> None:
+    grid, readings = sensing("\n".join(["#########"] + ["#.......#"] * 8 + ["####C####"]))
+    cost = 3.0  # % per move; the farthest cell is 11 moves away: 66 % out and back
+    coordinator = Coordinator(grid.shape, grid.charger, [AgentSpec(1, cost)], PlannerSettings())
+    cell, battery = grid.charger, 100.0
+    coordinator.observe(1, cell, readings(cell), battery)
+    returns = 0
+    for _ in range(2000):
+        before = coordinator.mode(1)
+        action = coordinator.decide(1)
+        if coordinator.mode(1) == AgentMode.RETURN and before == AgentMode.EXPLORE:
+            returns += 1
+            # It stopped where the next step would have cut into the reserve, and
+            # left a BTP there to resume from.
+            assert coordinator.btps()
+        if action.kind == ActionKind.CHARGE:
+            assert cell == grid.charger and battery >= 20.0 - 1e-9
+            battery = 100.0  # instant charge
+            coordinator.update_battery(1, battery)
+            continue
+        if action.kind == ActionKind.WAIT:
+            break
+        assert action.to is not None
+        cell, battery = action.to, battery - cost
+        coordinator.observe(1, cell, readings(cell), battery)
+        home = coordinator.belief.distance_to_charger(cell)
+        assert battery - cost * home >= 20.0 - 1e-9  # can always get home above the reserve
+    assert coordinator.finished and cell == grid.charger
+    assert returns >= 1 and coordinator.charges(1) == returns
+    assert coordinator.belief.covered_count == int((~grid.obstacle).sum())
+
+
+def test_a_blocked_agent_only_takes_a_target_it_can_afford_to_come_back_from() -> None:
+    grid, readings = corridor(6)
+    coordinator = Coordinator(grid.shape, grid.charger, [AgentSpec(1, 10.0)], PlannerSettings())
+    coordinator.observe(1, grid.charger, readings(grid.charger), 100.0)
+    # 100 % with 10 % a move and 20 % reserve: 8 moves in all, so 4 cells out and back.
+    cell, battery, farthest = grid.charger, 100.0, 0
+    for _ in range(40):
+        action = coordinator.decide(1)
+        if action.kind != ActionKind.MOVE:
+            break
+        assert action.to is not None
+        cell, battery = action.to, battery - 10.0
+        farthest = max(farthest, grid.charger[0] - cell[0])
+        coordinator.observe(1, cell, readings(cell), battery)
+    assert farthest == 4
+    assert battery >= 20.0 - 1e-9
+    assert coordinator.out_of_range_cells()  # the two far cells are reported, not skipped
