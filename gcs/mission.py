@@ -30,6 +30,7 @@ import yaml
 from planner.grid import Cell
 from sitl_mock.gridmap import GridMap
 from sitl_mock.maps import MapError, load_map, make_map, reachable_mask
+from vehicles.geo import GeoFrame
 
 MAX_SYSID = 255
 CONNECTION_BASE_PORT = 14550
@@ -115,6 +116,12 @@ class Mission:
     fleet: tuple[VehicleSpec, ...]
     planner: PlannerSpec
     vehicle_defaults: VehicleDefaults = dataclasses.field(default_factory=VehicleDefaults)
+
+    @property
+    def geo(self) -> GeoFrame:
+        """Where the grid is on Earth: the origin and the cell size."""
+        o = self.origin
+        return GeoFrame(o.lat_deg, o.lon_deg, o.alt_m, self.cell_size_m)
 
     def with_agents(self, count: int) -> Mission:
         """The same mission with ``count`` vehicles (the ``--agents N`` override).

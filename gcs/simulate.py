@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from gcs.mission import Mission
+from gcs.mission_log import MissionLog
 from gcs.result import AgentTrace, BtpRecord, RunResult
 from planner.coordinator import ActionKind, AgentMode, Coordinator, EventKind, PlannerEvent
 from planner.grid import Cell, CellState
@@ -22,6 +23,21 @@ from sitl_mock.lockstep import Body, LockstepWorld
 
 Progress = Callable[[int, int, int], None]
 """Called after each iteration with (iteration, covered cells, free cells)."""
+
+#: Planner events an operator sees in the log's timeline.
+LOGGED_EVENTS = frozenset(
+    {
+        EventKind.RETURN,
+        EventKind.CHARGED,
+        EventKind.SAFETY_NET,
+        EventKind.COVERAGE_COMPLETE,
+        EventKind.LOST,
+    }
+)
+#: Events after which the BTP stacks may have changed.
+BTP_EVENTS = frozenset({EventKind.BTP_DETECTED, EventKind.BTP_COVERED, EventKind.TARGET})
+#: Iterations between two map snapshots in the log.
+LOG_MAP_EVERY = 25
 
 
 @dataclass(frozen=True)
@@ -59,10 +75,12 @@ def simulate(
     options: SimOptions | None = None,
     progress: Progress | None = None,
     events: list[tuple[int, PlannerEvent]] | None = None,
+    log: MissionLog | None = None,
 ) -> RunResult:
     """Run the mission's fleet over its map until coverage is complete and all are home.
 
     ``events``, if given, receives every planner event with its iteration.
+    ``log``, if given, records the run (mission time = iteration) and is closed at the end.
     """
     options = options or SimOptions()
     grid = mission.map
@@ -102,10 +120,24 @@ def simulate(
     btps: dict[Cell, dict[str, int | None]] = {}
     coverage_iterations: int | None = None
 
+    def log_state(iteration: int) -> None:
+        assert log is not None
+        for i in ids:
+            mode = coordinator.mode(i)
+            log.agent_state(iteration, i, world.position[i], world.battery[i], mode.value)
+
     def record(iteration: int) -> None:
+        btps_changed = False
         for event in coordinator.drain_events():
             if events is not None:
                 events.append((iteration, event))
+            if log is not None:
+                btps_changed = btps_changed or event.kind in BTP_EVENTS
+                if event.kind in LOGGED_EVENTS:
+                    where = f" at {event.cell}" if event.cell is not None else ""
+                    text = f"{event.kind.value}: vehicle {event.agent}{where}"
+                    level = "error" if event.kind == EventKind.LOST else "info"
+                    log.event(iteration, text, level, event.agent)
             if event.kind == EventKind.BTP_DETECTED and event.cell not in btps:
                 btps[event.cell] = {
                     "by": event.agent,
@@ -115,9 +147,15 @@ def simulate(
                 }
             elif event.kind == EventKind.BTP_COVERED and event.cell in btps:
                 btps[event.cell].update(cov_by=event.agent, cov_at=iteration)
+        if btps_changed:
+            assert log is not None
+            log.btps(iteration, coordinator.btps())
 
     record(0)
     iteration = 0
+    if log is not None:
+        log_state(0)
+        log.coverage(0, coordinator.belief.state_grid(), coordinator.belief.covered_grid())
     while iteration < limit and not coordinator.finished:
         iteration += 1
         for i in ids:
@@ -153,6 +191,11 @@ def simulate(
             batteries[i].append(world.battery[i])
         covered_series.append(coordinator.belief.covered_count)
         record(iteration)
+        if log is not None:
+            log_state(iteration)
+            if iteration % LOG_MAP_EVERY == 0:
+                belief = coordinator.belief
+                log.coverage(iteration, belief.state_grid(), belief.covered_grid())
         if coverage_iterations is None and coordinator.coverage_complete:
             coverage_iterations = iteration
         if progress is not None:
@@ -173,7 +216,7 @@ def simulate(
         for i in ids
     )
     covered = coordinator.belief.covered_grid()
-    return RunResult(
+    result = RunResult(
         mission=mission.name,
         shape=grid.shape,
         cell_size_m=cell_m,
@@ -196,3 +239,8 @@ def simulate(
         planner_s=planner_s,
         extra={"btps_detected": coordinator.btps_detected, "total_iterations": iteration},
     )
+    if log is not None:
+        log.coverage(iteration, result.belief, covered)
+        log.result(iteration, result)
+        log.close()
+    return result

@@ -27,15 +27,9 @@ from sitl_mock.fleet import MockFleet, MockVehicleConfig
 from sitl_mock.modes import VehicleKind
 from sitl_mock.vehicle import VehicleSettings
 from vehicles.clock import ScaledClock
-from vehicles.geo import GeoFrame
 
 PROG = "sitl-mock"
 TCP_PORT_STEP = 10
-
-
-def geo_frame(mission: Mission) -> GeoFrame:
-    o = mission.origin
-    return GeoFrame(o.lat_deg, o.lon_deg, o.alt_m, mission.cell_size_m)
 
 
 def mock_fleet_configs(
@@ -122,9 +116,7 @@ async def _serve(
     for sig in (signal.SIGINT, signal.SIGTERM):
         with contextlib.suppress(NotImplementedError):
             loop.add_signal_handler(sig, stop.set)
-    fleet = MockFleet(
-        configs, mission.map, geo_frame(mission), ScaledClock(args.speedup), seed=args.seed
-    )
+    fleet = MockFleet(configs, mission.map, mission.geo, ScaledClock(args.speedup), seed=args.seed)
     async with fleet:
         print(
             f"{PROG}: {len(configs)} vehicle(s) of {mission.name}, speedup {args.speedup:g}; "

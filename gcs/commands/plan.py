@@ -11,13 +11,17 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.figures import write_figures
+from gcs.mcap_log import McapMissionLog
 from gcs.mission import Mission, MissionError, load_mission
+from gcs.mission_log import MissionLog
 from gcs.preflight import check_range
 from gcs.report import print_summary, write_report
 from gcs.result import RunResult
 from gcs.simulate import SimOptions, planner_settings, simulate
 from planner.settings import BmRule, PathPlannerKind, TargetPolicy
 
+#: The mission log's file name in ``--out``.
+LOG_NAME = "mission.mcap"
 #: Runs shorter than this many free cells finish before a progress bar is worth showing.
 PROGRESS_MIN_CELLS = 5000
 
@@ -33,7 +37,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         ),
     )
     add_mission_arguments(p)
-    p.add_argument("--out", type=Path, help="write report.json and PNG figures to this folder")
+    p.add_argument(
+        "--out",
+        type=Path,
+        help="write report.json, PNG figures and the MCAP log (mission.mcap) to this folder",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed for the planner's random choices")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
     p.set_defaults(func=run)
@@ -103,19 +111,40 @@ def run(args: argparse.Namespace) -> int:
     if reach.out_of_range:
         errors.print(f"[yellow]warning:[/] {reach.message()}")
     settings = planner_settings(mission, args.seed, **strategy_overrides(args))
-    result = simulate_with_progress(mission, SimOptions(seed=args.seed, settings=settings), errors)
+    log = open_log(mission, args.out) if args.out else None
+    options = SimOptions(seed=args.seed, settings=settings)
+    result = simulate_with_progress(mission, options, errors, log)
     print_summary(result, console)
     if args.out:
         write_outputs(result, args.out)
-        console.print(f"wrote {args.out}/report.json and figures")
+        console.print(f"wrote {args.out}/report.json, figures and {LOG_NAME}")
     return EXIT_OK if result.complete else EXIT_FAILED
 
 
-def simulate_with_progress(mission: Mission, options: SimOptions, console: Console) -> RunResult:
+def open_log(mission: Mission, out: Path) -> McapMissionLog:
+    """The MCAP mission log in ``out`` (created), ready for ``simulate``."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        return McapMissionLog(
+            out / LOG_NAME,
+            mission_name=mission.name,
+            shape=mission.map.shape,
+            cell_size_m=mission.cell_size_m,
+            charger=mission.charger,
+            geo=mission.geo,
+            reserve_pct=mission.planner.reserve_pct,
+        )
+    except OSError as exc:
+        raise UsageError(f"--out: cannot write to {out}: {exc.strerror}") from exc
+
+
+def simulate_with_progress(
+    mission: Mission, options: SimOptions, console: Console, log: MissionLog | None = None
+) -> RunResult:
     """Simulate, with a progress bar on the console for long runs."""
     free = int(mission.map.reachable().sum()) if mission.map.is_free(mission.charger) else 0
     if free < PROGRESS_MIN_CELLS or not console.is_terminal:
-        return simulate(mission, options)
+        return simulate(mission, options, log=log)
     with Progress(
         TextColumn("[bold]{task.description}"),
         BarColumn(),
@@ -131,7 +160,7 @@ def simulate_with_progress(mission: Mission, options: SimOptions, console: Conso
             if iteration % 50 == 0:
                 bar.update(task, completed=covered, iteration=iteration)
 
-        return simulate(mission, options, progress=tick)
+        return simulate(mission, options, progress=tick, log=log)
 
 
 def write_outputs(result: RunResult, out: Path) -> None:

@@ -1,0 +1,248 @@
+"""The MCAP mission log: Foxglove schemas and topics, exact rebuild, truncated files, gcs report."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+
+from gcs.cli import main
+from gcs.commands.plan import LOG_NAME
+from gcs.figures import BATTERY_PNG, COVERAGE_PNG, EXPLORED_PNG, PATH_LENGTH_PNG
+from gcs.log_reader import LogError, read_contents, read_log, reconstruct
+from gcs.mcap_log import McapMissionLog, codes_from_grid, grid_codes
+from gcs.mission import Mission
+from gcs.report import report_dict
+from gcs.result import RunResult
+from gcs.simulate import simulate
+from sitl_mock import mapgen
+from sitl_mock.maps import to_ascii
+from tests.checks import make_mission
+from vehicles.geo import GeoFrame
+
+PNGS = (COVERAGE_PNG, PATH_LENGTH_PNG, BATTERY_PNG, EXPLORED_PNG)
+#: Report keys that measure the machine, not the run.
+TIMING_KEYS = ("wall_s", "planner_s", "us_per_agent_step")
+#: Battery use that makes the agents of the test map charge a few times.
+ENERGY_PER_M_PCT = 0.6
+
+
+def _mission() -> Mission:
+    return make_mission(mapgen.rooms(24, 24, 3), 3, ENERGY_PER_M_PCT, name="rooms24")
+
+
+def _open_log(path: Path, mission: Mission, **options: Any) -> McapMissionLog:
+    o = mission.origin
+    return McapMissionLog(
+        path,
+        mission_name=mission.name,
+        shape=mission.map.shape,
+        cell_size_m=mission.cell_size_m,
+        charger=mission.charger,
+        geo=GeoFrame(o.lat_deg, o.lon_deg, o.alt_m, mission.cell_size_m),
+        reserve_pct=mission.planner.reserve_pct,
+        **options,
+    )
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory: pytest.TempPathFactory) -> tuple[RunResult, Path]:
+    """One logged run, with small chunks so that a cut file keeps many of them."""
+    mission = _mission()
+    path = tmp_path_factory.mktemp("log") / LOG_NAME
+    result = simulate(mission, log=_open_log(path, mission, chunk_size=4096))
+    assert result.complete and sum(a.charges for a in result.agents) > 0
+    return result, path
+
+
+def _without_timing(report: dict[str, Any]) -> dict[str, Any]:
+    return {k: v for k, v in report.items() if k not in TIMING_KEYS}
+
+
+def test_log_has_foxglove_schemas_and_topics(run: tuple[RunResult, Path]) -> None:
+    _, path = run
+    with open(path, "rb") as handle:
+        reader = make_reader(handle)
+        summary = reader.get_summary()
+        assert summary is not None
+        schemas = {s.name: s for s in summary.schemas.values()}
+        channels = {c.topic: c for c in summary.channels.values()}
+        messages = [(ch.topic, m) for _, ch, m in reader.iter_messages()]
+    for name in (
+        "foxglove.Grid",
+        "foxglove.LocationFix",
+        "foxglove.PoseInFrame",
+        "foxglove.SceneUpdate",
+        "foxglove.Log",
+    ):
+        assert schemas[name].encoding == "jsonschema"
+        assert json.loads(schemas[name].data)["title"] == name
+    topics = {"/map", "/events", "/scene/tracks", "/scene/btps", "/run/meta", "/run/result"}
+    for sysid in (1, 2, 3):
+        topics |= {f"/vehicle/{sysid}/{kind}" for kind in ("fix", "pose", "battery")}
+    assert topics <= set(channels)
+    assert all(channels[t].message_encoding == "json" for t in topics)
+    assert schemas["foxglove.Grid"].id == channels["/map"].schema_id
+    seen = {topic for topic, _ in messages}
+    assert topics <= seen
+    for _, message in messages:
+        json.loads(message.data)
+
+
+def test_map_grid_decodes_to_the_final_belief(run: tuple[RunResult, Path]) -> None:
+    result, path = run
+    contents = read_contents(path)
+    assert contents.last_map is not None
+    grid = contents.last_map
+    assert grid["column_count"] == result.shape[1]
+    assert grid["pose"]["position"]["y"] == -result.shape[0] * result.cell_size_m
+    assert [f["name"] for f in grid["fields"]][:1] == ["state"]
+    np.testing.assert_array_equal(codes_from_grid(grid), grid_codes(result.belief, result.covered))
+
+
+def test_events_and_states_are_logged(run: tuple[RunResult, Path]) -> None:
+    result, path = run
+    contents = read_contents(path)
+    assert not contents.truncated
+    kinds = {e.kind for e in contents.events}
+    assert {"return_to_charge", "charged", "coverage_complete"} <= kinds
+    steps = len(result.agents[0].track)
+    assert {i: len(s) for i, s in contents.states.items()} == {a.id: steps for a in result.agents}
+    meta = contents.meta
+    assert meta is not None
+    assert (meta["mission"], meta["shape"]) == ("rooms24", list(result.shape))
+
+
+def test_read_log_rebuilds_the_result(run: tuple[RunResult, Path]) -> None:
+    result, path = run
+    rebuilt = read_log(path)
+    assert report_dict(rebuilt) == report_dict(result)
+    assert rebuilt.agents == result.agents
+    assert rebuilt.btps == result.btps
+    assert rebuilt.covered_per_iteration == result.covered_per_iteration
+    np.testing.assert_array_equal(rebuilt.belief, result.belief)
+    assert rebuilt.belief.dtype == result.belief.dtype
+    np.testing.assert_array_equal(rebuilt.covered, result.covered)
+
+
+def test_reconstruction_without_result_matches_the_run(run: tuple[RunResult, Path]) -> None:
+    """With ``/run/result`` ignored, the stream alone gives back the run's report."""
+    result, path = run
+    contents = read_contents(path)
+    contents.result = None
+    rebuilt = reconstruct(contents)
+    assert [a.track for a in rebuilt.agents] == [a.track for a in result.agents]
+    assert [a.battery_pct for a in rebuilt.agents] == [a.battery_pct for a in result.agents]
+    assert [a.charges for a in rebuilt.agents] == [a.charges for a in result.agents]
+    assert rebuilt.covered_per_iteration == result.covered_per_iteration
+    assert rebuilt.iterations == result.iterations
+    assert rebuilt.covered_cells == result.covered_cells == rebuilt.free_cells
+    assert rebuilt.extra["log_truncated"] == 1
+
+
+def test_truncated_log_gives_the_states_up_to_the_cut(
+    run: tuple[RunResult, Path], tmp_path: Path
+) -> None:
+    result, path = run
+    data = path.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: int(len(data) * 0.6)])
+    contents = read_contents(cut)
+    assert contents.truncated and contents.result is None
+    rebuilt = read_log(cut)
+    assert rebuilt.extra["log_truncated"] == 1
+    steps = len(rebuilt.agents[0].track)
+    assert 1 < steps < len(result.agents[0].track)
+    for got, want in zip(rebuilt.agents, result.agents, strict=True):
+        assert got.id == want.id
+        assert got.track == want.track[:steps]
+        assert got.battery_pct == want.battery_pct[:steps]
+    assert rebuilt.covered_per_iteration == result.covered_per_iteration[:steps]
+    assert not rebuilt.complete
+    report_dict(rebuilt)  # JSON-ready
+
+
+def test_unclosed_log_is_readable(tmp_path: Path) -> None:
+    """A ground station that dies never calls close(): what was flushed is there."""
+    mission = _mission()
+    path = tmp_path / "dead.mcap"
+    log = _open_log(path, mission, flush_s=0.0)
+    for t in range(5):
+        log.agent_state(t, 1, (23, 12 - t), 100.0 - t, "exploring")
+        log.raw(1, False, t, b"\xfd\x09\x00\x00\x00\x01\x01\x00\x00\x00")
+    log.event(4, "lost: vehicle 1", "error", 1)
+    log.flush()
+    rebuilt = read_log(path)
+    assert rebuilt.agents[0].track == tuple((23, 12 - t) for t in range(5))
+    assert rebuilt.agents[0].lost  # from the event
+    assert rebuilt.agents[0].path_m == 4.0
+    assert read_contents(path).truncated
+    log.close()
+    assert not read_contents(path).truncated
+
+
+def test_raw_frames_keep_their_bytes(tmp_path: Path) -> None:
+    mission = _mission()
+    path = tmp_path / "raw.mcap"
+    frames = [bytes([0xFD, 9, 0, 0, k, 1, 1, 0, 0, 0]) + bytes(11) for k in range(3)]
+    with _open_log(path, mission) as log:
+        for k, frame in enumerate(frames):
+            log.raw(7, k % 2 == 1, float(k), frame)
+    with open(path, "rb") as handle:
+        reader = make_reader(handle)
+        got = [(ch.topic, ch.message_encoding, m.data) for _, ch, m in reader.iter_messages()]
+    raw = [g for g in got if g[0].startswith("/mavlink/")]
+    assert raw == [
+        ("/mavlink/7/in", "mavlink", frames[0]),
+        ("/mavlink/7/out", "mavlink", frames[1]),
+        ("/mavlink/7/in", "mavlink", frames[2]),
+    ]
+
+
+def test_gcs_report_rebuilds_report_and_figures(
+    run: tuple[RunResult, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    result, path = run
+    out = tmp_path / "out"
+    assert main(["report", str(path), "--out", str(out)]) == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report == report_dict(result)
+    for name in PNGS:
+        assert (out / name).read_bytes()[:4] == b"\x89PNG"
+    assert "rooms24" in capsys.readouterr().out
+
+
+def test_gcs_plan_out_writes_the_log(tmp_path: Path) -> None:
+    grid = mapgen.rooms(16, 16, 1)
+    (tmp_path / "map.txt").write_text(to_ascii(grid))
+    (tmp_path / "m.yaml").write_text("name: tiny\nmap: map.txt\nfleet:\n  count: 2\n")
+    out = tmp_path / "out"
+    assert main(["plan", str(tmp_path / "m.yaml"), "--out", str(out), "--quiet"]) == 0
+    planned = json.loads((out / "report.json").read_text())
+    rebuilt = read_log(out / LOG_NAME)
+    assert _without_timing(report_dict(rebuilt)) == _without_timing(planned)
+
+
+@pytest.mark.parametrize("kind", ["missing", "text", "empty", "directory", "magic_only"])
+def test_gcs_report_rejects_bad_files(
+    kind: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "bad.mcap"
+    if kind == "text":
+        path.write_text("name: not a log\n")
+    elif kind == "empty":
+        path.write_bytes(b"")
+    elif kind == "directory":
+        path.mkdir()
+    elif kind == "magic_only":
+        path.write_bytes(b"\x89MCAP0\r\n")
+    assert main(["report", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("gcs report: ") and "\n" not in err
+    assert "Traceback" not in err
+    with pytest.raises(LogError):
+        read_log(path)
