@@ -17,7 +17,7 @@ with room for the whole fleet: agents standing on it occupy nothing.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import IntEnum, StrEnum
 
 import numpy as np
@@ -93,6 +93,12 @@ class _Tier(IntEnum):
     FRONTIER = 3
 
 
+class _Held:
+    """Every target is being swept by a nearer agent: wait."""
+
+
+HELD = _Held()
+
 _PRIORITY = {AgentMode.RETURN: 3, AgentMode.HOMING: 2, AgentMode.TRANSIT: 1}
 
 
@@ -106,9 +112,16 @@ class _Agent:
     goal: int | None = None
     heading: Direction | None = None
     pending: int | None = None  # reserved target of the move under way
+    trailing: int | None = None  # the cell just left, held until the next decision
     charges: int = 0
     waited: int = 0
     make_way_for: int | None = None
+    #: After stepping aside: (agent let through, cell given up, decisions left to wait).
+    letting_pass: tuple[int, int, int] | None = None
+    #: The target of the transit being re-decided (``replan_transit``).
+    was_heading_for: int | None = None
+    #: Asked to make way by an agent that is itself making way (see ``_make_way``).
+    pushed: bool = False
 
     @property
     def id(self) -> int:
@@ -199,7 +212,11 @@ class Coordinator:
                 a.heading = Direction.between(belief.cell(a.index), cell)
             else:
                 a.path.clear()  # displaced: plans from here on
-            self._release(a.index, a.id)
+            # The cell just left stays held until the agent decides again, so
+            # that no agent enters it along the same edge in the same step (a swap).
+            if a.trailing is not None:
+                self._release(a.trailing, a.id)
+            a.trailing = a.index
             a.index = index
         self._occupy(index, a.id)
         a.battery_pct = battery_pct
@@ -218,6 +235,14 @@ class Coordinator:
         """New battery telemetry without a move (e.g. while charging)."""
         self._agents[agent].battery_pct = battery_pct
 
+    def set_energy_per_m(self, agent: int, pct_per_m: float) -> None:
+        """A new estimate of the agent's battery use per metre (live missions refine it
+        from telemetry); it rules every staying alive check from now on."""
+        if pct_per_m < 0:
+            raise ValueError("energy per metre must not be negative")
+        a = self._agents[agent]
+        a.spec = replace(a.spec, energy_per_m_pct=pct_per_m)
+
     def mark_lost(self, agent: int) -> None:
         """The agent is gone: its BTPs go back to the global stack, its claims are freed."""
         a = self._agents[agent]
@@ -233,6 +258,9 @@ class Coordinator:
 
     def decide(self, agent: int) -> Action:
         a = self._agents[agent]
+        if a.trailing is not None:
+            self._release(a.trailing, a.id)
+            a.trailing = None
         if a.mode in (AgentMode.DONE, AgentMode.LOST):
             return WAIT
         at_charger = a.index == self.belief.charger_index
@@ -244,6 +272,8 @@ class Coordinator:
             action = self._make_way(a)
             if action is not None:
                 return action
+        if a.letting_pass is not None and self._still_letting_pass(a):
+            return WAIT
         if self.coverage_complete and a.mode not in (AgentMode.RETURN, AgentMode.HOMING):
             self._drop_claim(a)
             a.mode = AgentMode.HOMING
@@ -265,12 +295,14 @@ class Coordinator:
                 or a.goal not in self.belief.uncovered
                 or self.settings.replan_transit
             ):
+                a.was_heading_for = a.goal
                 self._drop_claim(a)
                 a.mode = AgentMode.EXPLORE
             else:
                 return self._follow(a, a.goal)
         nxt = self._bm_next(a)
         if nxt is not None:
+            a.was_heading_for = None
             if self._can_afford(a, 1, nxt):
                 a.mode = AgentMode.EXPLORE
                 return self._move(a, nxt)
@@ -317,6 +349,8 @@ class Coordinator:
     # -- blocked: choose a BTP (Algorithm 3 with exact search) ------------------
 
     def _take_target(self, a: _Agent) -> Action:
+        previous, old_path = a.was_heading_for, a.path
+        a.was_heading_for = None
         self._drop_claim(a)
         uncovered, claims, owner = self.belief.uncovered, self._claims, self.stacks.owner
         tiers: list[tuple[_Tier, set[int] | dict[int, None]]]
@@ -336,9 +370,23 @@ class Coordinator:
                 continue
             any_candidate = True
             found = self._nearest_affordable(a, candidates)
+            if found is HELD:
+                a.mode = AgentMode.IDLE
+                return WAIT
             if found is None:
                 continue
             goal, path = found
+            if (
+                goal == previous
+                and old_path
+                and old_path[-1] == goal
+                and len(old_path) <= len(path)
+                and abs(old_path[0] - a.index) in (1, self.belief.stride)
+            ):
+                # Re-deciding in transit: keep a detour around other agents
+                # that is no longer than the fresh path, or the two alternate
+                # and the agent paces between them for ever.
+                path = old_path
             self._claims[goal] = a.id
             a.goal, a.path, a.mode = goal, path, AgentMode.TRANSIT
             kind = EventKind.SAFETY_NET if tier == _Tier.NET else EventKind.TARGET
@@ -351,9 +399,17 @@ class Coordinator:
         a.mode = AgentMode.IDLE
         return WAIT
 
-    def _nearest_affordable(self, a: _Agent, candidates: set[int]) -> tuple[int, list[int]] | None:
+    def _nearest_affordable(
+        self, a: _Agent, candidates: set[int]
+    ) -> tuple[int, list[int]] | _Held | None:
         """The closest candidate the agent can afford, preferring those no other
-        working agent is closer to (they are likely to be swept by that agent)."""
+        working agent is closer to (they are likely to be swept by that agent).
+
+        With ``hold_radius``, when every candidate is nearer to another working
+        agent, those within ``hold_radius`` cells of such an agent are left to it
+        (it is about to sweep them: chasing them only walks beside it), and
+        ``HELD`` says that all of them are.
+        """
         if self._roadmap is not None:
             return self._roadmap.nearest(
                 self.belief, a.index, candidates, lambda i, d: self._can_afford(a, d, i)
@@ -365,20 +421,40 @@ class Coordinator:
                 if b is not a and b.mode in (AgentMode.EXPLORE, AgentMode.TRANSIT)
             ]
             if others:
+                cell_of = self.belief.cell
 
-                def uncontested(i: int, d: int) -> bool:
-                    cell = self.belief.cell(i)
-                    return all(manhattan(cell, o) >= d for o in others)
+                def nearer_than(i: int, d: int) -> bool:
+                    r, c = cell_of(i)
+                    return all(abs(r - o[0]) + abs(c - o[1]) >= d for o in others)
 
                 found = nearest(
                     self.belief,
                     a.index,
                     lambda i, d: (
-                        i in candidates and uncontested(i, d) and self._can_afford(a, d, i)
+                        i in candidates and nearer_than(i, d) and self._can_afford(a, d, i)
                     ),
                 )
                 if found is not None:
                     return found
+                hold = self.settings.hold_radius
+                if hold:
+                    found = nearest(
+                        self.belief,
+                        a.index,
+                        lambda i, d: (
+                            i in candidates
+                            and nearer_than(i, min(d, hold + 1))
+                            and self._can_afford(a, d, i)
+                        ),
+                    )
+                    if found is not None:
+                        return found
+                    if self._move_cost(a) <= 0 or self._nearest_of(a, candidates) is not None:
+                        return HELD
+                    return None
+        return self._nearest_of(a, candidates)
+
+    def _nearest_of(self, a: _Agent, candidates: set[int]) -> tuple[int, list[int]] | None:
         return nearest(
             self.belief, a.index, lambda i, d: i in candidates and self._can_afford(a, d, i)
         )
@@ -425,10 +501,13 @@ class Coordinator:
     def _plan(
         self, a: _Agent, goal: int, blocked: frozenset[int] = frozenset()
     ) -> list[int] | None:
-        if self._roadmap is not None and not blocked:
-            return self._roadmap.path(self.belief, a.index, goal)
+        # The way home is always the exact shortest path: the staying alive
+        # policy budgets the return on it, so a longer roadmap path could eat
+        # into the reserve.
         if goal == self.belief.charger_index:
             return path_to_charger(self.belief, a.index, blocked)
+        if self._roadmap is not None and not blocked:
+            return self._roadmap.path(self.belief, a.index, goal)
         return shortest_path(self.belief, a.index, goal, blocked)
 
     def _follow(self, a: _Agent, goal: int) -> Action:
@@ -438,6 +517,8 @@ class Coordinator:
                 a.mode = AgentMode.IDLE
                 self._drop_claim(a)
                 return WAIT
+            if a.mode == AgentMode.TRANSIT and not self._can_afford(a, len(path), goal):
+                return self._go_charge(a)  # the new way there is longer than budgeted
             a.path = path
         nxt = a.path[0]
         blocker = self._occupant.get(nxt)
@@ -472,14 +553,19 @@ class Coordinator:
 
     def _ask_to_make_way(self, a: _Agent, blocker: _Agent) -> None:
         if blocker.mode == AgentMode.IDLE or self._priority(a) > self._priority(blocker):
-            blocker.make_way_for = a.id
+            asked = blocker.make_way_for
+            # The most urgent request stands (a returning agent before one
+            # leaving the charger), or the two can undo each other for ever.
+            if asked is None or self._priority(a) > self._priority(self._agents[asked]):
+                blocker.make_way_for = a.id
 
     def _make_way(self, b: _Agent) -> Action | None:
         """Step aside for the agent that asked, if it still needs this cell."""
         assert b.make_way_for is not None
         a = self._agents[b.make_way_for]
         b.make_way_for = None
-        if not a.path or a.path[0] != b.index:
+        pushed, b.pushed = b.pushed, False
+        if not pushed and (not a.path or a.path[0] != b.index):
             return None
         ahead = set(a.path)
         best: tuple[tuple[bool, int], int] | None = None
@@ -487,7 +573,7 @@ class Coordinator:
             v = b.index + s
             if (
                 self.belief.state[v] != _FREE
-                or v == a.index
+                or (v == a.index and v != self.belief.charger_index)  # the depot has room
                 or v in self._occupant
                 or not self._can_afford(b, 1, v)
             ):
@@ -496,9 +582,31 @@ class Coordinator:
             if best is None or key > best[0]:
                 best = (key, v)
         if best is None:
+            # Boxed in (a queue in a corridor): pass the request on to the agents
+            # around, so that the queue backs off from its free end.
+            for s in self.belief.steps:
+                c = self._agents.get(self._occupant.get(b.index + s, -1))
+                if c is not None and c is not a and c.make_way_for is None:
+                    c.make_way_for, c.pushed = b.id, True
             return None
         b.path.clear()
+        b.letting_pass = (a.id, b.index, 4 * self.settings.patience)
         return self._move(b, best[1])
+
+    def _still_letting_pass(self, b: _Agent) -> bool:
+        """Stay aside until the agent let through has gone past the cell given up."""
+        assert b.letting_pass is not None
+        agent, cell, left = b.letting_pass
+        a = self._agents[agent]
+        if (
+            left > 0
+            and a.mode not in (AgentMode.DONE, AgentMode.LOST)
+            and (cell in a.path or a.pending == cell)
+        ):
+            b.letting_pass = (agent, cell, left - 1)
+            return True
+        b.letting_pass = None
+        return False
 
     def _move(self, a: _Agent, to: int) -> Action:
         a.waited = 0

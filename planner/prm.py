@@ -14,6 +14,7 @@ moves, so a PRM path is a sequence of adjacent cells like any other.
 from __future__ import annotations
 
 import hashlib
+import itertools
 import math
 from collections.abc import Callable, Iterable
 
@@ -109,9 +110,12 @@ class Roadmap:
 
     def _expand(self, belief: MapBelief, route: list[int]) -> list[int]:
         path: list[int] = []
-        for a, b in zip(route, route[1:], strict=False):
+        for a, b in itertools.pairwise(route):
             cells = line_cells(belief, a, b)
-            assert cells is not None
+            if cells is None:  # the edge was checked from the other end
+                back = line_cells(belief, b, a)
+                assert back is not None
+                cells = [*back[-2::-1], b]
             path.extend(cells)
         return path
 

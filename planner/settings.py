@@ -56,6 +56,11 @@ class PlannerSettings:
     bm_rule: BmRule = BmRule.TIGHT
     #: Prefer targets that no other working agent is closer to.
     spread: bool = True
+    #: With ``spread``, when every target is nearer to another working agent:
+    #: leave to it those within this many cells of it (it is about to sweep
+    #: them, chasing them only walks beside it) and take the nearest other one,
+    #: or wait when there is none. 0 takes the nearest target even then.
+    hold_radius: int = 5
     #: Decide afresh at every step of a transit (sweep from an uncovered cell
     #: passed on the way, or take a target that has become nearer); the paper
     #: travels to the chosen BTP.
