@@ -26,6 +26,7 @@ UNREACHED = 1 << 30
 _FREE = int(CellState.FREE)
 _OBSTACLE = int(CellState.OBSTACLE)
 _UNKNOWN = int(CellState.UNKNOWN)
+_DELTA = {d: d.value for d in Direction}
 
 
 class MapBelief:
@@ -52,8 +53,10 @@ class MapBelief:
         self.steps = (-self.stride, self.stride, 1, -1)  # N, S, E, W
         self.covered_count = 0
         self.free_count = 0
-        #: Flat indices of known free cells not covered yet (the frontier).
+        #: Flat indices of known free cells not covered yet (the frontier), and
+        #: the same as a mask over the flat cells.
         self.uncovered: set[int] = set()
+        self.uncovered_mask = bytearray(size)
         self._set_free(self.charger_index)
 
     # -- addressing ---------------------------------------------------------
@@ -90,11 +93,13 @@ class MapBelief:
     def sense(self, cell: Cell, readings: Mapping[Direction, CellState]) -> list[int]:
         """Record what an agent at ``cell`` sensed; return newly known free cells."""
         newly_free: list[int] = []
+        rows, cols = self.shape
         for direction, observed in readings.items():
-            nbr = direction.of(cell)
-            if not self.inside(nbr) or observed == CellState.UNKNOWN:
+            dr, dc = _DELTA[direction]
+            r, c = cell[0] + dr, cell[1] + dc
+            if not (0 <= r < rows and 0 <= c < cols) or observed == CellState.UNKNOWN:
                 continue
-            i = self.index(nbr)
+            i = (r + 1) * self.stride + c + 1
             if self.state[i] != _UNKNOWN:
                 continue
             if observed == CellState.FREE:
@@ -118,6 +123,7 @@ class MapBelief:
         self.covered_by[i] = agent + 1
         self.covered_count += 1
         self.uncovered.discard(i)
+        self.uncovered_mask[i] = 0
         return True
 
     def mark_free(self, i: int) -> None:
@@ -130,6 +136,7 @@ class MapBelief:
         self.free_count += 1
         if not self.covered[i]:
             self.uncovered.add(i)
+            self.uncovered_mask[i] = 1
         dist = self.charger_dist
         if i == self.charger_index:
             dist[i] = 0

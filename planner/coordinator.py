@@ -24,8 +24,9 @@ import numpy as np
 
 from planner import btp
 from planner.belief import UNREACHED, MapBelief
+from planner.fast_search import TargetSearch
 from planner.grid import MOVES, Cell, CellState, Direction, manhattan
-from planner.paths import nearest, path_to_charger, shortest_path
+from planner.paths import nearest, nearest_ranked, path_to_charger, shortest_path
 from planner.prm import Roadmap
 from planner.settings import (
     AgentSpec,
@@ -86,6 +87,14 @@ class PlannerEvent:
     cell: Cell | None = None
 
 
+class _Rank(IntEnum):
+    """How good a target is for an agent, when spreading the team out."""
+
+    UNCONTESTED = 0  # no other working agent is closer
+    BEYOND_HOLD = 1  # another is closer, but not about to sweep it
+    CONTESTED = 2  # within hold_radius of another working agent
+
+
 class _Tier(IntEnum):
     OWN = 0
     GLOBAL = 1
@@ -120,6 +129,8 @@ class _Agent:
     letting_pass: tuple[int, int, int] | None = None
     #: The target of the transit being re-decided (``replan_transit``).
     was_heading_for: int | None = None
+    held_for: int = 0  # decisions to wait before searching for a target again
+    held_backoff: int = 0
     #: Asked to make way by an agent that is itself making way (see ``_make_way``).
     pushed: bool = False
 
@@ -152,6 +163,7 @@ class Coordinator:
         self._claims: dict[int, int] = {}  # target cell -> agent chasing it
         self._events: list[PlannerEvent] = []
         self._complete = False
+        self._search = TargetSearch(self.belief)
         self._roadmap = (
             Roadmap(self.settings) if self.settings.path_planner == PathPlannerKind.PRM else None
         )
@@ -349,6 +361,12 @@ class Coordinator:
     # -- blocked: choose a BTP (Algorithm 3 with exact search) ------------------
 
     def _take_target(self, a: _Agent) -> Action:
+        if a.held_for > 0:
+            # Held back from targets others are about to sweep: look again only
+            # after a pause that doubles while nothing frees up (each look is a
+            # search of the known map).
+            a.held_for -= 1
+            return WAIT
         previous, old_path = a.was_heading_for, a.path
         a.was_heading_for = None
         self._drop_claim(a)
@@ -365,14 +383,26 @@ class Coordinator:
             tiers.append((_Tier.NET, uncovered))
         any_candidate = False
         for tier, pool in tiers:
-            candidates = {i for i in pool if i not in claims and self._in_range(i)}
-            if not candidates:
-                continue
-            any_candidate = True
-            found = self._nearest_affordable(a, candidates)
+            if pool is uncovered and self._roadmap is None:
+                found = self._nearest_uncovered(a)
+                if found is None:
+                    any_candidate = any_candidate or any(
+                        i not in claims and self._in_range(i) for i in uncovered
+                    )
+                    continue
+                any_candidate = True
+            else:
+                candidates = {i for i in pool if i not in claims and self._in_range(i)}
+                if not candidates:
+                    continue
+                any_candidate = True
+                found = self._nearest_affordable(a, candidates)
             if found is HELD:
                 a.mode = AgentMode.IDLE
+                a.held_backoff = min(2 * a.held_backoff + 1, self.settings.held_backoff_max)
+                a.held_for = a.held_backoff
                 return WAIT
+            a.held_backoff = 0
             if found is None:
                 continue
             goal, path = found
@@ -414,45 +444,68 @@ class Coordinator:
             return self._roadmap.nearest(
                 self.belief, a.index, candidates, lambda i, d: self._can_afford(a, d, i)
             )
-        if self.settings.spread:
-            others = [
-                self.belief.cell(b.index)
-                for b in self._agents.values()
-                if b is not a and b.mode in (AgentMode.EXPLORE, AgentMode.TRANSIT)
-            ]
-            if others:
-                cell_of = self.belief.cell
+        if not self.settings.spread:
+            return self._nearest_of(a, candidates)
+        others = self._working_cells(a)
+        cell_of = self.belief.cell
+        hold = self.settings.hold_radius
 
-                def nearer_than(i: int, d: int) -> bool:
-                    r, c = cell_of(i)
-                    return all(abs(r - o[0]) + abs(c - o[1]) >= d for o in others)
+        def nearer_than(i: int, d: int) -> bool:
+            r, c = cell_of(i)
+            return all(abs(r - o[0]) + abs(c - o[1]) >= d for o in others)
 
-                found = nearest(
-                    self.belief,
-                    a.index,
-                    lambda i, d: (
-                        i in candidates and nearer_than(i, d) and self._can_afford(a, d, i)
-                    ),
-                )
-                if found is not None:
-                    return found
-                hold = self.settings.hold_radius
-                if hold:
-                    found = nearest(
-                        self.belief,
-                        a.index,
-                        lambda i, d: (
-                            i in candidates
-                            and nearer_than(i, min(d, hold + 1))
-                            and self._can_afford(a, d, i)
-                        ),
-                    )
-                    if found is not None:
-                        return found
-                    if self._move_cost(a) <= 0 or self._nearest_of(a, candidates) is not None:
-                        return HELD
-                    return None
-        return self._nearest_of(a, candidates)
+        def rank(i: int, d: int) -> int | None:
+            if not self._can_afford(a, d, i):
+                return None
+            if nearer_than(i, d):
+                return _Rank.UNCONTESTED
+            if hold and nearer_than(i, min(d, hold + 1)):
+                return _Rank.BEYOND_HOLD
+            return _Rank.CONTESTED
+
+        found = nearest_ranked(self.belief, a.index, candidates, rank, len(_Rank))
+        if found is None:
+            return None
+        level, goal, path = found
+        if level == _Rank.CONTESTED and hold:
+            return HELD
+        return goal, path
+
+    def _nearest_uncovered(self, a: _Agent) -> tuple[int, list[int]] | _Held | None:
+        """``_nearest_affordable`` over every unclaimed uncovered cell, compiled."""
+        spread = self.settings.spread
+        hold = self.settings.hold_radius if spread else 0
+        found = self._search.run(
+            a.index,
+            a.battery_pct,
+            self._move_cost(a),
+            self.settings.reserve_pct - _EPS,
+            self._best_move_cost(),
+            self.settings.resume_pct - self.settings.reserve_pct + _EPS,
+            self._working_cells(a) if spread else [],
+            hold,
+            list(self._claims),
+        )
+        if found is None:
+            return None
+        level, goal, path = found
+        if level == _Rank.CONTESTED and hold:
+            return HELD
+        return goal, path
+
+    def _best_move_cost(self) -> float:
+        return min(
+            (self._move_cost(b) for b in self._agents.values() if b.mode != AgentMode.LOST),
+            default=0.0,
+        )
+
+    def _working_cells(self, a: _Agent) -> list[Cell]:
+        """Where the other agents that are sweeping or on their way to sweep are."""
+        return [
+            self.belief.cell(b.index)
+            for b in self._agents.values()
+            if b is not a and b.mode in (AgentMode.EXPLORE, AgentMode.TRANSIT)
+        ]
 
     def _nearest_of(self, a: _Agent, candidates: set[int]) -> tuple[int, list[int]] | None:
         return nearest(

@@ -61,6 +61,9 @@ class PlannerSettings:
     #: them, chasing them only walks beside it) and take the nearest other one,
     #: or wait when there is none. 0 takes the nearest target even then.
     hold_radius: int = 5
+    #: Longest pause, in decisions, before a held-back agent searches again
+    #: (0: search at every decision).
+    held_backoff_max: int = 8
     #: Decide afresh at every step of a transit (sweep from an uncovered cell
     #: passed on the way, or take a target that has become nearer); the paper
     #: travels to the chosen BTP.

@@ -1,0 +1,169 @@
+"""The target search of a blocked agent, compiled with numba.
+
+A blocked agent ranks every reachable uncovered cell against the rest of the
+team (see ``Coordinator._nearest_affordable``); in a large team most searches
+cover the whole known map, which in pure Python is most of the planner's
+time. This is the same breadth-first search (same N, S, E, W order, same
+ranks, same tie-breaks, so the same plans) over the belief's flat arrays,
+compiled to machine code.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from planner.belief import UNREACHED, MapBelief
+from planner.grid import CellState
+
+_FREE = int(CellState.FREE)
+
+
+@njit(cache=True, nogil=True)
+def _search(
+    state: np.ndarray,
+    candidate: np.ndarray,
+    home: np.ndarray,
+    start: int,
+    stride: int,
+    battery: float,
+    cost: float,
+    floor: float,
+    best_cost: float,
+    budget: float,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    hold: int,
+    seen: np.ndarray,
+    stamp: int,
+    parent: np.ndarray,
+    queue: np.ndarray,
+) -> tuple[int, int]:
+    """Returns (rank, cell) of the best target, or (-1, -1)."""
+    steps = (-stride, stride, 1, -1)
+    best1 = -1
+    best2 = -1
+    seen[start] = stamp
+    queue[0] = start
+    head = 0
+    tail = 1
+    # ``distance`` is that of the cells being expanded; ``level_end`` is where
+    # the cells one move farther start in the queue.
+    level_end = 1
+    distance = 0
+    while head < tail:
+        if head == level_end:
+            level_end = tail
+            distance += 1
+        u = queue[head]
+        head += 1
+        d = distance + 1
+        for k in range(4):
+            v = u + steps[k]
+            if state[v] != _FREE or seen[v] == stamp:
+                continue
+            seen[v] = stamp
+            parent[v] = u
+            queue[tail] = v
+            tail += 1
+            if candidate[v] == 0:
+                continue
+            back = home[v]
+            if back < UNREACHED and 2.0 * back * best_cost > budget:
+                continue  # out of range for every agent
+            if back >= UNREACHED or battery - cost * (d + back) < floor:
+                continue  # cannot afford it
+            r = v // stride - 1
+            c = v % stride - 1
+            nearest_other = UNREACHED
+            for j in range(others_r.size):
+                m = abs(r - others_r[j]) + abs(c - others_c[j])
+                if m < nearest_other:
+                    nearest_other = m
+            if nearest_other >= d:
+                return 0, v
+            if hold > 0 and nearest_other >= min(d, hold + 1):
+                if best1 < 0:
+                    best1 = v
+            elif best2 < 0:
+                best2 = v
+    if best1 >= 0:
+        return 1, best1
+    if best2 >= 0:
+        return 2, best2
+    return -1, -1
+
+
+class TargetSearch:
+    """Scratch arrays for ``_search``, reused across calls on one belief."""
+
+    def __init__(self, belief: MapBelief) -> None:
+        size = len(belief.state)
+        self.belief = belief
+        self.seen = np.zeros(size, dtype=np.int64)
+        self.parent = np.zeros(size, dtype=np.int64)
+        self.queue = np.zeros(size, dtype=np.int64)
+        self.stamp = 0
+        self.state = np.frombuffer(belief.state, dtype=np.uint8)
+        self.candidate = np.frombuffer(belief.uncovered_mask, dtype=np.uint8)
+        self.home = np.frombuffer(belief.charger_dist, dtype=np.int32)
+
+    def run(
+        self,
+        start: int,
+        battery: float,
+        cost: float,
+        floor: float,
+        best_cost: float,
+        budget: float,
+        others: list[tuple[int, int]],
+        hold: int,
+        excluded: list[int],
+    ) -> tuple[int, int, list[int]] | None:
+        """The best target as ``(rank, cell, path)``; ``excluded`` cells (claimed by
+        other agents) are not candidates."""
+        self.stamp += 1
+        saved = [(i, self.candidate[i]) for i in excluded]
+        for i, _ in saved:
+            self.candidate[i] = 0
+        try:
+            rank, cell = _search(
+                self.state,
+                self.candidate,
+                self.home,
+                start,
+                self.belief.stride,
+                battery,
+                cost,
+                floor,
+                best_cost,
+                budget,
+                np.array([o[0] for o in others], dtype=np.int64),
+                np.array([o[1] for o in others], dtype=np.int64),
+                hold,
+                self.seen,
+                self.stamp,
+                self.parent,
+                self.queue,
+            )
+        finally:
+            for i, value in saved:
+                self.candidate[i] = value
+        if rank < 0:
+            return None
+        path = [cell]
+        parent = self.parent
+        while parent[path[-1]] != start:
+            path.append(int(parent[path[-1]]))
+        path.reverse()
+        return rank, cell, path
+
+
+def _warm_up() -> None:
+    """Compile (or load from numba's cache) at import, not in the first decision."""
+    belief = MapBelief((1, 2), (0, 0))
+    belief.mark_free(belief.index((0, 1)))
+    TargetSearch(belief).run(belief.index((0, 0)), 100.0, 0.0, 0.0, 0.0, 100.0, [], 0, [])
+
+
+_warm_up()
