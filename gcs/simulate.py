@@ -190,14 +190,16 @@ def simulate(
             tracks[i].append(world.position[i])
             batteries[i].append(world.battery[i])
         covered_series.append(coordinator.belief.covered_count)
+        # Ask before recording: the first time it holds, the planner emits the
+        # coverage-complete event, which belongs to this iteration.
+        if coverage_iterations is None and coordinator.coverage_complete:
+            coverage_iterations = iteration
         record(iteration)
         if log is not None:
             log_state(iteration)
             if iteration % LOG_MAP_EVERY == 0:
                 belief = coordinator.belief
                 log.coverage(iteration, belief.state_grid(), belief.covered_grid())
-        if coverage_iterations is None and coordinator.coverage_complete:
-            coverage_iterations = iteration
         if progress is not None:
             progress(iteration, coordinator.belief.covered_count, free_cells)
 
