@@ -338,6 +338,9 @@ class Coordinator:
         uncovered ways on they leave (fewest first, unknown counting as open),
         then by the paper's order: it sweeps into dead ends and narrow strips
         before leaving them, so fewer pockets are left behind to come back for.
+        With ``bm_spread``, equally tight moves are ranked by the distance to the
+        nearest other working agent, farthest first, so that sweeps move apart
+        instead of cutting into each other's area.
         """
         state, covered, occupant = self.belief.state, self.belief.covered, self._occupant
         steps = self.belief.steps
@@ -356,7 +359,16 @@ class Coordinator:
                 if v + s != a.index and state[v + s] != _OBSTACLE and not covered[v + s]
             )
 
-        return min(candidates, key=openings)
+        if not self.settings.bm_spread:
+            return min(candidates, key=openings)
+        others = self._working_cells(a)
+        cell_of = self.belief.cell
+
+        def crowding(v: int) -> int:
+            r, c = cell_of(v)
+            return -min((abs(r - o[0]) + abs(c - o[1]) for o in others), default=0)
+
+        return min(candidates, key=lambda v: (openings(v), crowding(v)))
 
     # -- blocked: choose a BTP (Algorithm 3 with exact search) ------------------
 

@@ -54,6 +54,9 @@ class PlannerSettings:
     path_planner: PathPlannerKind = PathPlannerKind.GRID
     target_policy: TargetPolicy = TargetPolicy.FRONTIER
     bm_rule: BmRule = BmRule.TIGHT
+    #: Among equally tight moves, take the one farthest from the other working
+    #: agents (``BmRule.TIGHT`` only).
+    bm_spread: bool = True
     #: Prefer targets that no other working agent is closer to.
     spread: bool = True
     #: With ``spread``, when every target is nearer to another working agent:

@@ -92,9 +92,13 @@ small_maps = st.builds(
     targets=st.sampled_from(list(TargetPolicy)),
     spread=st.booleans(),
     replan=st.booleans(),
+    bm_spread=st.booleans(),
+    hold=st.sampled_from([0, 5]),
     prm=st.booleans(),
 )
-def test_every_strategy_keeps_the_invariants(grid, agents, bm, targets, spread, replan, prm):
+def test_every_strategy_keeps_the_invariants(
+    grid, agents, bm, targets, spread, replan, bm_spread, hold, prm
+):
     mission = make_mission(grid, agents, _energy_for(grid, 0.5))
     settings_ = planner_settings(
         mission,
@@ -102,6 +106,8 @@ def test_every_strategy_keeps_the_invariants(grid, agents, bm, targets, spread, 
         target_policy=targets,
         spread=spread,
         replan_transit=replan,
+        bm_spread=bm_spread,
+        hold_radius=hold,
     )
     if prm:
         settings_ = dataclasses.replace(settings_, path_planner=PathPlannerKind.PRM)
