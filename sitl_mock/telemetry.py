@@ -59,6 +59,12 @@ def _boot_ms(v: Vehicle) -> int:
     return int(v.elapsed_s * 1000) & 0xFFFFFFFF
 
 
+def centiamps(current_a: float) -> int:
+    """Current in cA as SYS_STATUS and BATTERY_STATUS carry it (int16): saturated, since a
+    value out of range would make ``pack`` raise and kill the telemetry stream."""
+    return max(-INT16_MAX, min(INT16_MAX, round(current_a * 100)))
+
+
 def battery_pct(v: Vehicle) -> int:
     """Whole percent, rounded up so that 0 means empty (a dead vehicle)."""
     return min(100, math.ceil(v.battery.remaining_pct))
@@ -124,7 +130,7 @@ def sys_status(codec: mavlink.MAVLink, v: Vehicle) -> list[Message]:
             healthy,
             0,
             round(b.voltage_v * 1000),
-            round(b.current_a * 100),
+            centiamps(b.current_a),
             battery_pct(v),
             0,
             0,
@@ -146,7 +152,7 @@ def battery_status(codec: mavlink.MAVLink, v: Vehicle) -> list[Message]:
             mavlink.MAV_BATTERY_TYPE_LIPO,
             INT16_MAX,
             voltages,
-            round(b.current_a * 100),
+            centiamps(b.current_a),
             round(b.consumed_mah),
             -1,
             battery_pct(v),

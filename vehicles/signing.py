@@ -46,8 +46,14 @@ def signing_timestamp(unix_s: float | None = None) -> int:
     return max(0, int((t - _SIGNING_EPOCH_UNIX_S) * 100_000))
 
 
-def _accept_unsigned(_codec: mavlink.MAVLink, _msg_id: int) -> bool:
-    return True
+def _accept_unsigned(codec: mavlink.MAVLink, _msg_id: int) -> bool:
+    """Accept a message without a signature, never one whose signature failed.
+
+    pymavlink asks this callback in both cases; it counts a failed signature in
+    ``badsig_count`` just before asking, which tells the two apart."""
+    seen = getattr(codec, "_badsig_seen", 0)
+    codec._badsig_seen = codec.signing.badsig_count  # type: ignore[attr-defined]
+    return codec.signing.badsig_count == seen
 
 
 def apply_signing(codec: mavlink.MAVLink, config: SigningConfig | None) -> None:

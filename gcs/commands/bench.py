@@ -19,6 +19,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
+from gcs.bench_mavlink import register_mavlink
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.mission import Mission, MissionError, load_mission
 from gcs.result import RunResult
@@ -89,6 +90,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     paper.add_argument("--json", type=Path, help="also write the figures as JSON to this file")
     paper.set_defaults(func=run_paper)
+    register_mavlink(which)
 
 
 def _load(path: Path) -> Mission:
@@ -144,8 +146,10 @@ def run_paper(args: argparse.Namespace) -> int:
         "paper",
         "path / (free-1)",
         "makespan ratio",
+        "planner s",
         "ms / step",
         "paper s / step",
+        "x faster / step",
         "us / agent-step",
         "complete",
         "lost",
@@ -176,8 +180,10 @@ def run_paper(args: argparse.Namespace) -> int:
                 f"{paper_iter_ratio:.3f}" if paper_iter_ratio else "-",
                 f"{norm['path_ratio']:.3f}",
                 f"{norm['makespan_ratio']:.3f}",
+                f"{result.planner_s:.3f}",
                 f"{ms_step:.3f}",
                 f"{paper[1]:.2f}" if paper else "-",
+                f"{1e3 * paper[1] / ms_step:.0f}" if paper and ms_step > 0 else "-",
                 f"{us_agent_step:.1f}",
                 "yes" if result.complete else "[red]NO[/]",
                 str(result.lost_agents),
