@@ -253,7 +253,14 @@ class VehicleEndpoint:
         builder = telemetry.BUILDERS[message_id]
         while True:
             if self._channels:
-                for msg in builder(self._encoder, self.vehicle):
+                try:
+                    messages = builder(self._encoder, self.vehicle)
+                except Exception:  # one bad message must not end the stream for good
+                    log.exception(
+                        "vehicle %d: cannot build message %d", self.vehicle.id, message_id
+                    )
+                    messages = []
+                for msg in messages:
                     self.broadcast(msg)
             await self.clock.sleep(interval_s)
 
