@@ -305,7 +305,10 @@ class Coordinator:
             if (
                 a.index == a.goal
                 or a.goal not in self.belief.uncovered
-                or self.settings.replan_transit
+                # Re-deciding needs consistent shortest paths: with the roadmap a
+                # fresh path from one step on can be longer than the rest of the
+                # old one, and the agent would turn back before every arrival.
+                or (self.settings.replan_transit and self._roadmap is None)
             ):
                 a.was_heading_for = a.goal
                 self._drop_claim(a)

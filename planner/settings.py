@@ -69,7 +69,7 @@ class PlannerSettings:
     held_backoff_max: int = 8
     #: Decide afresh at every step of a transit (sweep from an uncovered cell
     #: passed on the way, or take a target that has become nearer); the paper
-    #: travels to the chosen BTP.
+    #: travels to the chosen BTP. Only with the exact grid paths.
     replan_transit: bool = True
     #: Iterations an agent waits on another before asking it to make way.
     patience: int = 2
