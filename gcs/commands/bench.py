@@ -16,10 +16,10 @@ import platform
 from dataclasses import dataclass
 from pathlib import Path
 
-from rich.console import Console
 from rich.table import Table
 
 from gcs.bench_mavlink import register_mavlink
+from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.mission import Mission, MissionError, load_mission
 from gcs.result import RunResult
@@ -114,14 +114,8 @@ def normalised(result: RunResult) -> dict[str, float]:
     }
 
 
-def wide_console() -> Console:
-    """Tables of many columns: wide enough when the output is a file or a pipe."""
-    console = Console()
-    return console if console.is_terminal else Console(width=200)
-
-
 def run_paper(args: argparse.Namespace) -> int:
-    console = wide_console()
+    console = output_console()
     scenario = _load(args.missions / "scenario1.yaml")
     bob = _load(args.missions / "bob30.yaml")
     figures: dict[str, object] = {"machine": platform.processor() or platform.machine()}

@@ -9,6 +9,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.figures import write_figures
 from gcs.mcap_log import McapMissionLog
@@ -105,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
             mission,
             planner=dataclasses.replace(mission.planner, path_planner=args.path_planner),
         )
-    console = Console(quiet=args.quiet)
+    console = output_console(quiet=args.quiet)
     errors = Console(stderr=True, quiet=args.quiet)
     reach = check_range(mission)
     if reach.out_of_range:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from rich.console import Console
 
+from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.figures import write_figures
 from gcs.log_reader import LogError, read_log
@@ -43,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
         write_figures(result, out)
     except OSError as exc:
         raise UsageError(f"--out: cannot write to {out}: {exc.strerror}") from exc
-    console = Console(quiet=args.quiet)
+    console = output_console(quiet=args.quiet)
     if result.extra.get("log_truncated"):
         Console(stderr=True, quiet=args.quiet).print(
             "[yellow]warning:[/] the log ends before the run's result (the ground station "

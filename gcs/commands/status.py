@@ -9,7 +9,6 @@ import sys
 from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
-from rich.console import Console
 from rich.table import Table
 
 from gcs.commands.mission import (
@@ -18,6 +17,7 @@ from gcs.commands.mission import (
     positive_float,
     signing_from_args,
 )
+from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK
 from vehicles.endpoints import Endpoint
 from vehicles.errors import LinkError, TransportClosed
@@ -74,7 +74,7 @@ class _Seen:
 def run(args: argparse.Namespace) -> int:
     endpoints = [endpoint_from_args(text, args) for text in args.endpoints]
     signing = signing_from_args(args)
-    console = Console()
+    console = output_console()
     try:
         seen = asyncio.run(_collect(endpoints, signing, args.timeout))
     except LinkError as exc:
