@@ -603,8 +603,14 @@ class Coordinator:
         return WAIT
 
     def _detour(self, a: _Agent, goal: int) -> list[int] | None:
-        """A path around the agents in the way, if it is not much longer and affordable."""
-        blocked = frozenset(i for i in self._occupant if i != goal and i != a.index)
+        """A path around the agents in the way, if it is not much longer and affordable.
+
+        A goal held by another agent (one about to move into it) is no way
+        round: the agent waits for it like for any other held cell.
+        """
+        if self._occupant.get(goal, a.id) != a.id:
+            return None
+        blocked = frozenset(i for i in self._occupant if i != a.index)
         path = self._plan(a, goal, blocked)
         if not path or len(path) > len(a.path) + 2 * self.settings.patience:
             return None

@@ -1,0 +1,238 @@
+"""``gcs run MISSION.yaml``: the live mission over MAVLink (``--sim``: against the mock fleet).
+
+Ctrl-C aborts safely: every vehicle is sent to charge (or held where it is
+if it cannot be), the log is closed, and what was done is reported.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import dataclasses
+import logging
+import signal
+import sys
+from pathlib import Path
+
+from rich.console import Console
+
+from gcs.commands.plan import load, write_outputs
+from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
+from gcs.live.agent import AgentSettings
+from gcs.live.display import LiveDisplay
+from gcs.live.mission import LiveOptions, MissionRefused, SimFaults, run_live
+from gcs.mission import Mission
+from gcs.mission_log import MissionLog, NullLog
+from gcs.preflight import check_range
+from gcs.report import print_summary
+from gcs.result import RunResult
+
+#: The mission log's file name in ``--out``.
+LOG_NAME = "mission.mcap"
+EXIT_INTERRUPTED = 130
+SIM_SPEEDUP = 10.0
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser(
+        "run",
+        help="run the mission live over MAVLink (--sim: against the built-in mock fleet)",
+        description=(
+            "Connect to every vehicle of the mission, check it is ready on the charger, and "
+            "explore and cover the area with the staying alive policy, each vehicle at its own "
+            "pace; every vehicle comes back to charge before its battery runs out and goes home "
+            "at the end. Ctrl-C sends every vehicle to charge. Exit status 0 when coverage is "
+            "complete with no vehicle lost, 1 otherwise, 2 on bad input."
+        ),
+    )
+    p.add_argument("mission", type=Path, help="mission file (YAML)")
+    p.add_argument("--agents", type=int, metavar="N", help="override the fleet size")
+    p.add_argument(
+        "--sim",
+        action="store_true",
+        help="start the mission's mock fleet in this process first (loopback MAVLink)",
+    )
+    p.add_argument(
+        "--speedup",
+        type=float,
+        metavar="X",
+        help="simulated seconds per real second of the vehicles' clock (a SITL speed-up); "
+        f"default {SIM_SPEEDUP:g} with --sim, 1 otherwise",
+    )
+    p.add_argument(
+        "--out", type=Path, help="write report.json, PNG figures and mission.mcap to this folder"
+    )
+    p.add_argument("--quiet", action="store_true", help="no live display; print only errors")
+    p.add_argument("--seed", type=int, default=0, help="seed for the planner and the mock fleet")
+    p.add_argument(
+        "--lost-after",
+        type=float,
+        default=AgentSettings().lost_after_s,
+        metavar="S",
+        help="declare a vehicle lost after its link has been down this many mission seconds "
+        "(default %(default)g)",
+    )
+    p.add_argument(
+        "--time-limit",
+        type=float,
+        metavar="S",
+        help="abort (everyone goes to charge) after this many mission seconds",
+    )
+    p.add_argument(
+        "--heartbeat-timeout",
+        type=float,
+        default=30.0,
+        metavar="S",
+        help="real seconds to wait for every vehicle's first heartbeat (default 30)",
+    )
+    faults = p.add_argument_group("faults injected into the mock fleet (with --sim)")
+    faults.add_argument("--sim-loss", type=float, default=0.0, metavar="P", help="packet loss")
+    faults.add_argument(
+        "--sim-battery-noise",
+        type=float,
+        default=0.0,
+        metavar="F",
+        help="every battery drain is multiplied by 1 + U(-F, F)",
+    )
+    faults.add_argument(
+        "--sim-sag",
+        action="append",
+        default=[],
+        metavar="T:PCT",
+        help="every vehicle loses PCT %% of charge at T s of its time (repeatable)",
+    )
+    faults.add_argument(
+        "--sim-cut",
+        action="append",
+        default=[],
+        metavar="SYSID:T:D",
+        help="vehicle SYSID's link carries nothing from T s for D s (repeatable)",
+    )
+    p.set_defaults(func=run)
+
+
+def _numbers(text: str, count: int, option: str) -> tuple[float, ...]:
+    parts = text.split(":")
+    try:
+        values = tuple(float(x) for x in parts)
+    except ValueError:
+        values = ()
+    if len(values) != count:
+        shape = {"--sim-sag": "T:PCT", "--sim-cut": "SYSID:T:D"}[option]
+        raise UsageError(f"{option}: expected {shape}, got {text!r}")
+    return values
+
+
+def options_from(args: argparse.Namespace, mission: Mission) -> LiveOptions:
+    speedup = args.speedup if args.speedup is not None else SIM_SPEEDUP if args.sim else 1.0
+    if not speedup > 0:
+        raise UsageError(f"--speedup must be positive, got {speedup}")
+    if not 0.0 <= args.sim_loss < 1.0:
+        raise UsageError(f"--sim-loss must be in [0, 1), got {args.sim_loss}")
+    if not 0.0 <= args.sim_battery_noise < 1.0:
+        raise UsageError(f"--sim-battery-noise must be in [0, 1), got {args.sim_battery_noise}")
+    if args.lost_after <= 0:
+        raise UsageError(f"--lost-after must be positive, got {args.lost_after}")
+    sags = tuple(_numbers(s, 2, "--sim-sag") for s in args.sim_sag)
+    cuts = []
+    for text in args.sim_cut:
+        sysid, at, duration = _numbers(text, 3, "--sim-cut")
+        if int(sysid) not in {v.sysid for v in mission.fleet}:
+            raise UsageError(f"--sim-cut: no vehicle {int(sysid)} in the fleet")
+        cuts.append((int(sysid), at, duration))
+    faulty = args.sim_loss or args.sim_battery_noise or sags or cuts
+    if faulty and not args.sim:
+        raise UsageError("--sim-* faults need --sim")
+    agent = dataclasses.replace(AgentSettings(), lost_after_s=args.lost_after)
+    return LiveOptions(
+        sim=args.sim,
+        speedup=speedup,
+        seed=args.seed,
+        heartbeat_timeout_s=args.heartbeat_timeout,
+        time_limit_s=args.time_limit,
+        faults=SimFaults(
+            loss=args.sim_loss,
+            battery_noise=args.sim_battery_noise,
+            sags=sags,  # type: ignore[arg-type]
+            cuts=tuple(cuts),
+        ),
+        agent=agent,
+    )
+
+
+def open_log(mission: Mission, out: Path, errors: Console) -> MissionLog:
+    """The MCAP mission log in ``out``, if the MCAP writer is available; else no log."""
+    try:
+        from gcs.mcap_log import McapMissionLog
+    except ImportError:
+        errors.print("[yellow]warning:[/] MCAP logging is not available; no mission.mcap")
+        return NullLog()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        return McapMissionLog(  # type: ignore[return-value]
+            out / LOG_NAME,
+            mission_name=mission.name,
+            shape=mission.map.shape,
+            cell_size_m=mission.cell_size_m,
+            charger=mission.charger,
+            geo=mission.geo,
+            reserve_pct=mission.planner.reserve_pct,
+        )
+    except OSError as exc:
+        raise UsageError(f"--out: cannot write to {out}: {exc.strerror}") from exc
+
+
+def run(args: argparse.Namespace) -> int:
+    mission = load(args)
+    options = options_from(args, mission)
+    if not logging.getLogger().handlers:
+        # Library warnings (link lost...) reach the operator through the display instead.
+        logging.getLogger().addHandler(logging.NullHandler())
+    console = Console(quiet=args.quiet)
+    errors = Console(stderr=True)
+    reach = check_range(mission)
+    if reach.out_of_range:
+        errors.print(f"[yellow]warning:[/] {reach.message()}")
+    mission_log = open_log(mission, args.out, errors) if args.out else NullLog()
+    display = LiveDisplay(quiet=args.quiet, console=console)
+    try:
+        result, interrupted = asyncio.run(_main(mission, options, mission_log, display))
+    except MissionRefused as exc:
+        print(f"gcs run: {exc}", file=sys.stderr)  # one line, never wrapped
+        return exc.exit_code
+    finally:
+        mission_log.close()
+    console.print()
+    print_summary(result, console)
+    if args.out:
+        write_outputs(result, args.out)
+        console.print(f"wrote {args.out}/report.json, figures and {LOG_NAME}")
+    if interrupted:
+        return EXIT_INTERRUPTED
+    return EXIT_OK if result.complete else EXIT_FAILED
+
+
+async def _main(
+    mission: Mission, options: LiveOptions, mission_log: MissionLog, display: LiveDisplay
+) -> tuple[RunResult, bool]:
+    abort = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):
+        # Only in the main thread; the first Ctrl-C aborts safely, a second one kills.
+        loop.add_signal_handler(signal.SIGINT, _on_interrupt, loop, abort)
+    try:
+        with display:
+            result = await run_live(
+                mission, options, mission_log, display.notify, abort, on_start=display.attach
+            )
+    finally:
+        with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):
+            loop.remove_signal_handler(signal.SIGINT)
+    return result, abort.is_set()
+
+
+def _on_interrupt(loop: asyncio.AbstractEventLoop, abort: asyncio.Event) -> None:
+    """First Ctrl-C: abort safely. The default handler is back for a second one."""
+    abort.set()
+    loop.remove_signal_handler(signal.SIGINT)

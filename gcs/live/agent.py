@@ -1,0 +1,447 @@
+"""One vehicle's task in a live mission: arrive, sense, observe, decide, act; again.
+
+Each vehicle asks the shared planner for its next move when it has arrived
+somewhere, at its own pace: no lockstep, so a slow vehicle never holds up
+the others. What an action means for a vehicle:
+
+* MOVE: fly to the cell centre in GUIDED, wait for the position telemetry to
+  show it there, collect range readings taken after arrival, observe.
+  When the planner sends the vehicle home (returning to charge, or homing at
+  the end) the whole way home is uploaded as a mission and flown in AUTO, so
+  the vehicle gets home even if the link drops; the ground station still
+  observes each waypoint and asks the planner for the next cell, and stops
+  the vehicle (back to stepping in GUIDED) if the planner does not grant it.
+* CHARGE: park on the charger (copter lands, rover holds, disarm) and follow
+  the battery telemetry until the planner lets it go.
+* WAIT: wait until another vehicle changes something, or a while.
+
+A vehicle whose heartbeat is lost is held out of planning (its task does not
+decide) until the link is back; if it does not come back within
+``lost_after_s`` the vehicle is declared lost, its work goes back to the
+others, and the mission carries on.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import math
+from dataclasses import dataclass, field
+
+from gcs.live.energy import EnergyEstimator
+from gcs.live.pilot import Pilot, PilotSettings
+from gcs.live.sensing import (
+    classify,
+    compass_ranges_from_obstacles,
+    compass_ranges_from_sensors,
+    diagonal_evidence,
+    merge_ranges,
+    readings_from_map,
+)
+from gcs.live.shared import Level, Phase, SharedPlanner, VehicleView
+from gcs.mission import Sensing, VehicleSpec
+from planner.coordinator import Action, ActionKind, AgentMode
+from planner.grid import Cell, CellState, Direction, manhattan
+from planner.paths import path_to_charger
+from sitl_mock.gridmap import GridMap
+from vehicles.errors import LinkError
+from vehicles.link import LinkEvent, VehicleLink
+from vehicles.telemetry import Battery, Position, Topic
+
+log = logging.getLogger(__name__)
+
+_FOREVER_S = 1e9
+_WARNING_SEVERITY = 4  # MAV_SEVERITY_WARNING
+
+
+@dataclass(frozen=True)
+class AgentSettings:
+    """Times are mission seconds."""
+
+    #: A waiting vehicle decides again at least this often, even if nothing changed.
+    wait_recheck_s: float = 5.0
+    #: A vehicle whose link stays lost this long is declared lost.
+    lost_after_s: float = 30.0
+    #: Longest wait for a battery update while charging.
+    charge_poll_s: float = 10.0
+    #: Fly the way home as an AUTO mission (survives a lost link); else step in GUIDED.
+    auto_return: bool = True
+    #: Shorter ways home are simply stepped.
+    min_auto_cells: int = 3
+    #: Failed actions in a row (with the link up) before a vehicle is given up.
+    max_failures: int = 6
+    pilot: PilotSettings = field(default_factory=PilotSettings)
+
+
+class AgentLost(Exception):
+    """The vehicle cannot be worked with any more (link gone, or it keeps failing)."""
+
+
+class Agent:
+    def __init__(
+        self,
+        spec: VehicleSpec,
+        link: VehicleLink,
+        pilot: Pilot,
+        planner: SharedPlanner,
+        estimator: EnergyEstimator,
+        view: VehicleView,
+        grid: GridMap,
+        settings: AgentSettings | None = None,
+    ) -> None:
+        self.spec = spec
+        self.id = spec.sysid
+        self.link = link
+        self.pilot = pilot
+        self.planner = planner
+        self.estimator = estimator
+        self.view = view
+        self.grid = grid
+        self.settings = settings or AgentSettings()
+        self._odometer_m = 0.0
+        self._estimator_odometer_m = 0.0
+        self._lost_reason: str | None = None
+        self._helpers: list[asyncio.Task[None]] = []
+
+    @property
+    def charger(self) -> Cell:
+        return self.planner.coordinator.belief.charger
+
+    def _tell(self, text: str, level: Level = Level.INFO) -> None:
+        self.planner.notify(f"vehicle {self.id} {text}", level, self.id)
+
+    # -- the task ------------------------------------------------------------------------
+
+    async def run(self) -> None:
+        """Work until the planner says done, or the vehicle is lost."""
+        main = asyncio.current_task()
+        assert main is not None
+        self._helpers = [
+            asyncio.ensure_future(self._watch_link(main)),
+            asyncio.ensure_future(self._track_odometer()),
+            asyncio.ensure_future(self._track_battery()),
+            asyncio.ensure_future(self._relay_statustext()),
+        ]
+        try:
+            await self._work()
+        except asyncio.CancelledError:
+            if self._lost_reason is None:
+                raise
+            self.planner.mark_lost(self.id, self._lost_reason)
+        except AgentLost as exc:
+            self.planner.mark_lost(self.id, str(exc))
+        except Exception as exc:  # a bug must not take the fleet down with it
+            log.exception("vehicle %d task failed", self.id)
+            self.planner.mark_lost(self.id, f"internal error: {exc!r}")
+        finally:
+            for task in self._helpers:
+                task.cancel()
+            await asyncio.gather(*self._helpers, return_exceptions=True)
+
+    async def _work(self) -> None:
+        pos = await self.pilot.wait_position(lambda _p: True, self.settings.pilot.sensing_timeout_s)
+        await self._arrive(self.charger, pos)
+        action: Action | None = None
+        failures = 0
+        while True:
+            await self._link_up()
+            if action is None:
+                action = self._decide()
+            try:
+                if action.kind == ActionKind.WAIT and self.planner.mode(self.id) in (
+                    AgentMode.DONE,
+                    AgentMode.LOST,
+                ):
+                    await self._finish()
+                    return
+                action = await self._execute(action)
+                failures = 0
+            except (LinkError, TimeoutError) as exc:
+                failures += 1
+                if failures >= self.settings.max_failures:
+                    raise AgentLost(f"failed {failures} times in a row ({exc})") from exc
+                self._tell(f"{action.kind} failed ({exc or type(exc).__name__})", Level.WARNING)
+                if not self.link.is_up:
+                    continue  # the same action again once the link is back
+                with contextlib.suppress(LinkError, TimeoutError):
+                    await self._resync()
+                    action = None
+
+    def _decide(self) -> Action:
+        battery = self.pilot.battery_pct
+        if battery is not None:
+            self.planner.update_battery(self.id, battery)
+        self.planner.set_energy(self.id, self.estimator.estimate_pct_per_m)
+        action = self.planner.decide(self.id)
+        self.view.mode = str(self.planner.mode(self.id))
+        return action
+
+    async def _execute(self, action: Action) -> Action | None:
+        """Carry out an action; returns a follow-up action already decided, or None."""
+        if action.kind == ActionKind.MOVE:
+            assert action.to is not None
+            mode = self.planner.mode(self.id)
+            if self.settings.auto_return and mode in (AgentMode.RETURN, AgentMode.HOMING):
+                cells = self._way_home(action.to)
+                if len(cells) >= self.settings.min_auto_cells:
+                    return await self._fly_home(cells)
+            await self._step(action.to)
+            return None
+        if action.kind == ActionKind.CHARGE:
+            await self._charge()
+            return None
+        await self._wait()
+        return None
+
+    # -- link, odometer, battery -----------------------------------------------------------
+
+    async def _watch_link(self, main: asyncio.Task[None]) -> None:
+        """Hold the vehicle out of planning while its link is lost; give it up after
+        ``lost_after_s``."""
+        events = self.link.stream(Topic.LINK)
+        try:
+            async for event in events:
+                if event != LinkEvent.LOST:
+                    continue
+                before = self.view.phase
+                self.view.phase = Phase.LINK_LOST
+                self._tell("link lost: held out of planning", Level.WARNING)
+                try:
+                    await self.link.wait_for(
+                        Topic.LINK,
+                        lambda e: e == LinkEvent.UP,
+                        self.pilot.real_s(self.settings.lost_after_s),
+                    )
+                except TimeoutError:
+                    self._lost_reason = f"no heartbeat for {self.settings.lost_after_s:g} s"
+                    main.cancel()
+                    return
+                self.view.phase = before
+                self._tell("link is back")
+        finally:
+            await events.aclose()  # type: ignore[attr-defined]
+
+    async def _link_up(self) -> None:
+        if not self.link.is_up:
+            # No timeout of our own: the link watcher gives the vehicle up in time.
+            await self.link.wait_for(Topic.LINK, lambda e: e == LinkEvent.UP, _FOREVER_S)
+
+    async def _track_odometer(self) -> None:
+        """Horizontal distance travelled, from the position telemetry."""
+        last: Position | None = None
+        geo = self.pilot.geo
+        positions = self.link.stream(Topic.POSITION)
+        try:
+            async for pos in positions:
+                if last is not None:
+                    n0, e0 = geo.geo_to_local(last.lat_deg, last.lon_deg)
+                    n1, e1 = geo.geo_to_local(pos.lat_deg, pos.lon_deg)
+                    step = math.hypot(n1 - n0, e1 - e0)
+                    if step > 0.01:  # below GPS jitter and rounding
+                        self._odometer_m += step
+                last = pos
+        finally:
+            await positions.aclose()  # type: ignore[attr-defined]
+
+    async def _track_battery(self) -> None:
+        """Feed the energy estimate with each battery update and the distance since."""
+        updates = self.link.stream(Topic.BATTERY)
+        try:
+            async for battery in updates:
+                assert isinstance(battery, Battery)
+                if battery.remaining_pct is None:
+                    continue
+                moved = self._odometer_m - self._estimator_odometer_m
+                self._estimator_odometer_m = self._odometer_m
+                self.estimator.add(moved, battery.remaining_pct)
+                self.view.battery_pct = battery.remaining_pct
+                self.planner.record.agents[self.id].odometer_m = self._odometer_m
+        finally:
+            await updates.aclose()  # type: ignore[attr-defined]
+
+    async def _relay_statustext(self) -> None:
+        """The vehicle's own warnings (STATUSTEXT up to MAV_SEVERITY_WARNING) for the operator."""
+        texts = self.link.stream(Topic.STATUSTEXT)
+        try:
+            async for text in texts:
+                if text.severity <= _WARNING_SEVERITY:
+                    level = Level.WARNING if text.severity == _WARNING_SEVERITY else Level.ERROR
+                    self._tell(f"says: {text.text}", level)
+        finally:
+            await texts.aclose()  # type: ignore[attr-defined]
+
+    # -- actions -----------------------------------------------------------------------------
+
+    async def _step(self, to: Cell) -> None:
+        if not (self.pilot.airborne() or (not self.pilot.flies and self.pilot.armed)):
+            self.view.phase = Phase.TAKING_OFF
+        await self.pilot.underway()
+        self.view.phase = Phase.MOVING
+        pos = await self.pilot.goto(to)
+        await self._arrive(to, pos)
+
+    async def _arrive(self, cell: Cell, pos: Position) -> None:
+        self.view.phase = Phase.SENSING
+        readings = await self._sense(cell, pos)
+        self._observe(cell, pos, readings)
+
+    def _observe(self, cell: Cell, pos: Position, readings: dict[Direction, CellState]) -> None:
+        battery = self.pilot.battery_pct
+        battery = 100.0 if battery is None else battery
+        self.view.cell = cell
+        self.view.battery_pct = battery
+        self.planner.observe(
+            self.id, cell, readings, battery, (pos.lat_deg, pos.lon_deg, pos.heading_deg)
+        )
+
+    async def _sense(self, cell: Cell, pos: Position) -> dict[Direction, CellState]:
+        if self.spec.sensing == Sensing.MAP:
+            return readings_from_map(self.grid, cell)
+        ranges, obstacles = await self.pilot.ranges_since(pos.time_boot_ms)
+        heading = pos.heading_deg
+        if heading is None:
+            return {}
+        compass = merge_ranges(
+            compass_ranges_from_sensors(heading, ranges),
+            compass_ranges_from_obstacles(heading, obstacles) if obstacles else {},
+        )
+        cell_size = self.pilot.geo.cell_size_m
+        diagonals = diagonal_evidence(heading, obstacles, cell_size) if obstacles else None
+        return classify(compass, cell_size, diagonals=diagonals)
+
+    def _way_home(self, first: Cell) -> list[Cell]:
+        belief = self.planner.coordinator.belief
+        rest = path_to_charger(belief, belief.index(first)) or []
+        return [first, *(belief.cell(i) for i in rest)]
+
+    async def _fly_home(self, cells: list[Cell]) -> Action | None:
+        """Fly ``cells`` (the last one the charger) as an AUTO mission, observing each
+        waypoint and asking the planner for the next cell; stop and hand back to
+        stepping when the planner does not grant it."""
+        await self.pilot.underway()
+        first_seq = await self.pilot.start_route(cells, land=True)
+        self.view.phase = Phase.FLYING_HOME
+        self._tell(f"flies {len(cells)} cells home in AUTO")
+        previous = self.planner.coordinator.cell_of(self.id)
+        for k, cell in enumerate(cells):
+            seq = first_seq + k
+
+            def reached(p: Position, cell: Cell = cell, seq: int = seq) -> bool:
+                current = self.pilot.mission_seq()
+                return self.pilot.at(p, cell) or (current is not None and current > seq)
+
+            metres = self.pilot.geo.cell_size_m * max(1, manhattan(previous, cell))
+            pos = await self.pilot.wait_position(
+                reached, self.pilot.move_time_s(metres) + self.settings.pilot.waypoint_hold_s
+            )
+            previous = cell
+            # No fresh ranges here: the vehicle does not stop long enough, and the way
+            # home runs over cells already known.
+            self._observe(cell, pos, {})
+            if k == len(cells) - 1:
+                return None  # home: the mission lands a copter; CHARGE parks it
+            action = self._decide()
+            if action.kind == ActionKind.MOVE and action.to == cells[k + 1]:
+                continue
+            # The planner does not grant the next cell (another vehicle in the way): stop.
+            self.view.phase = Phase.MOVING
+            pos = await self.pilot.stop_here()
+            actual = self.pilot.cell_of(pos)
+            if actual != cell:
+                self._observe(actual, pos, {})
+                return None
+            return action
+        return None
+
+    async def _charge(self) -> None:
+        if self.pilot.armed or self.pilot.airborne():
+            self.view.phase = Phase.PARKING
+            await self.pilot.park()
+        self.view.phase = Phase.CHARGING
+        battery = await self.link.wait_for(
+            Topic.BATTERY,
+            lambda b: b.remaining_pct is not None,
+            self.pilot.real_s(self.settings.charge_poll_s),
+        )
+        self.planner.update_battery(self.id, battery.remaining_pct)
+        self.planner.record.battery(self.id, self.charger, battery.remaining_pct)
+
+    async def _wait(self) -> None:
+        if self.planner.coordinator.cell_of(self.id) == self.charger and (
+            self.pilot.armed or self.pilot.airborne()
+        ):
+            self.view.phase = Phase.PARKING
+            await self.pilot.park()  # nothing to do: wait on the ground, disarmed
+        self.view.phase = Phase.WAITING
+        # Decide again at the first change after one move's time (the planner counts its
+        # patience in decisions, as if each were an iteration in which others move once),
+        # or after ``wait_recheck_s`` in any case.
+        clock = self.pilot.clock
+        start = clock.now()
+        pace = self.pilot.geo.cell_size_m / self.pilot.speed_m_s
+        changed = False
+        while True:
+            waited = clock.now() - start
+            left = self.settings.wait_recheck_s - waited
+            if left <= 0 or (changed and waited >= pace):
+                return
+            timeout = min(left, pace - waited) if changed else left
+            changed |= await self.planner.changed.wait(clock.to_real(max(timeout, 0.0)))
+
+    async def _finish(self) -> None:
+        if self.planner.mode(self.id) == AgentMode.DONE:
+            self.view.phase = Phase.PARKING
+            await self.pilot.park()
+            self.view.phase = Phase.DONE
+            self._tell("is home, parked and disarmed")
+
+    async def _resync(self) -> None:
+        """After a failed action: settle where the vehicle really is and tell the planner."""
+        pos = self.pilot.position
+        if pos is None:
+            raise LinkError("no position")
+        if self.pilot.airborne(pos) or (not self.pilot.flies and self.pilot.armed):
+            pos = await self.pilot.stop_here()
+        cell = self.pilot.cell_of(pos)
+        await self._arrive(cell, pos)
+
+
+async def send_home(agent: Agent, timeout_s: float) -> str:
+    """After an abort: send the vehicle to the charger in AUTO, or hold it where it is.
+    Returns what was done, for the operator."""
+    pilot = agent.pilot
+    if not agent.link.is_up:
+        return "link down: left as it is"
+    pos = pilot.position
+    try:
+        if pos is None:
+            raise LinkError("no position")
+        cell = pilot.cell_of(pos)
+        belief = agent.planner.coordinator.belief
+        if cell == agent.charger:
+            await pilot.park()
+            return "parked on the charger"
+        if not belief.is_free(cell):
+            cell = agent.planner.coordinator.cell_of(agent.id)
+        rest = path_to_charger(belief, belief.index(cell))
+        if rest is None:
+            raise LinkError("no known way home")
+        cells = [cell, *(belief.cell(i) for i in rest)]
+        if pilot.flies and not pilot.airborne(pos):
+            await pilot.park()
+            return "landed where it is"
+        await pilot.start_route(cells, land=True)
+        with contextlib.suppress(TimeoutError):
+            await pilot.wait_position(
+                lambda p: pilot.at(p, agent.charger) or (pilot.flies and p.alt_rel_m < 0.2),
+                timeout_s,
+            )
+            await pilot.park()
+            return "flew home and parked"
+        return "flying home in AUTO"
+    except (LinkError, TimeoutError) as exc:
+        with contextlib.suppress(LinkError, TimeoutError):
+            await pilot.hold()
+            return f"could not send home ({exc}): holding"
+        return f"could not send home or hold ({exc})"

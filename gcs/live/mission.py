@@ -1,0 +1,413 @@
+"""The live mission: connect to the fleet, check it, run one task per vehicle, report.
+
+With ``sim`` the mission's own mock fleet (``sitl_mock``) is started in this
+process first, on loopback, on the mirror side of every vehicle's connection,
+with the same clock: everything else is exactly what a real mission does,
+over real MAVLink on UDP or TCP.
+
+Order of events:
+
+1. open every vehicle's link (a ``udpin`` end must be listening before the
+   vehicles send), then start the mock fleet if asked;
+2. readiness, per vehicle and concurrently: heartbeat, vehicle type, the
+   telemetry we need (position, battery, range readings for ``range``
+   vehicles), on the charger, GUIDED accepted (retried while the autopilot is
+   not ready, as ArduPilot needs after boot);
+3. the planner with one agent per vehicle, each with its own energy estimate;
+4. every agent task at once; the mission ends when every vehicle is home
+   (or lost), on the time limit, or on an abort (Ctrl-C), after which every
+   vehicle is sent to charge (or held);
+5. a ``RunResult``, also written to the mission log.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from gcs.errors import EXIT_BAD_INPUT, EXIT_FAILED
+from gcs.live.agent import Agent, AgentSettings, send_home
+from gcs.live.energy import EnergyEstimator, EnergySettings, model_prior
+from gcs.live.pilot import Pilot
+from gcs.live.record import MissionRecord
+from gcs.live.shared import Level, Notify, Phase, SharedPlanner, VehicleView
+from gcs.mission import Mission, Sensing, VehicleSpec
+from gcs.mission_log import MissionLog
+from gcs.result import RunResult
+from gcs.simulate import planner_settings, prior_map
+from gcs.sitl_cli import mock_fleet_configs
+from planner.coordinator import Coordinator
+from planner.settings import AgentSpec
+from sitl_mock.battery import BatterySag
+from sitl_mock.faults import LinkCut, LinkFaults, VehicleFaults
+from sitl_mock.fleet import MockFleet, MockVehicleConfig
+from vehicles.clock import Clock, ScaledClock
+from vehicles.commands import CommandSettings
+from vehicles.errors import LinkError
+from vehicles.link import LinkSettings, VehicleLink
+from vehicles.mission_protocol import MissionSettings
+from vehicles.modes import FlightMode, VehicleKind
+from vehicles.telemetry import Topic
+
+log = logging.getLogger(__name__)
+
+#: Message rates we ask every vehicle for (Hz of vehicle time); 0 stops a stream we never read.
+RATES_HZ: dict[int, float] = {
+    mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 4.0,
+    mavlink.MAVLINK_MSG_ID_SYS_STATUS: 1.0,
+    mavlink.MAVLINK_MSG_ID_BATTERY_STATUS: 1.0,
+    mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 2.0,
+    # Ranges are also asked for on each arrival (MAV_CMD_REQUEST_MESSAGE).
+    mavlink.MAVLINK_MSG_ID_DISTANCE_SENSOR: 1.0,
+    mavlink.MAVLINK_MSG_ID_OBSTACLE_DISTANCE: 1.0,
+    mavlink.MAVLINK_MSG_ID_ATTITUDE: 0.0,
+    mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: 0.0,
+}
+
+
+class MissionRefused(Exception):
+    """The fleet is not fit to start; ``exit_code`` says whose fault (input or vehicles)."""
+
+    def __init__(self, message: str, exit_code: int = EXIT_FAILED) -> None:
+        super().__init__(message)
+        self.exit_code = exit_code
+
+
+@dataclass(frozen=True)
+class SimFaults:
+    """Faults injected into the mock fleet of a ``--sim`` run (rehearsals and tests)."""
+
+    #: Packet loss in each direction on every link.
+    loss: float = 0.0
+    latency_s: float = 0.0
+    #: Every battery drain is multiplied by 1 + U(-noise, +noise).
+    battery_noise: float = 0.0
+    #: Sudden drops on every vehicle: (vehicle time s, percent).
+    sags: tuple[tuple[float, float], ...] = ()
+    #: Link cuts: (sysid, at s, duration s).
+    cuts: tuple[tuple[int, float, float], ...] = ()
+
+
+@dataclass(frozen=True)
+class LiveOptions:
+    sim: bool = False
+    #: Simulated seconds per real second of the vehicles' clock (the mock's, or a SITL's).
+    speedup: float = 1.0
+    seed: int = 0
+    #: Real seconds to wait for every vehicle's first heartbeat.
+    heartbeat_timeout_s: float = 30.0
+    #: Mission seconds to wait for position, battery and range telemetry at the start.
+    telemetry_timeout_s: float = 10.0
+    #: A link is "lost" after this many mission seconds without a heartbeat.
+    link_lost_after_s: float = 3.0
+    #: Stop (and send everyone home) after this many mission seconds; None: no limit.
+    time_limit_s: float | None = None
+    #: Mission seconds given to the fleet to get home after an abort.
+    abort_return_s: float = 300.0
+    faults: SimFaults = field(default_factory=SimFaults)
+    agent: AgentSettings = field(default_factory=AgentSettings)
+    energy: EnergySettings = field(default_factory=EnergySettings)
+
+
+@dataclass
+class LiveRun:
+    """What the display and the command look at while the mission runs."""
+
+    mission: Mission
+    clock: Clock
+    views: dict[int, VehicleView]
+    planner: SharedPlanner | None = None
+    started_at: float | None = None
+    aborted: bool = False
+
+    @property
+    def elapsed_s(self) -> float:
+        return 0.0 if self.started_at is None else self.clock.now() - self.started_at
+
+
+def link_settings(options: LiveOptions, clock: Clock) -> LinkSettings:
+    """Link timing: heartbeat loss in mission time; on loopback with the mock, short
+    command and mission timeouts (a lost packet must not cost minutes of mission time)."""
+    lost_real = max(0.5, clock.to_real(options.link_lost_after_s))
+    if not options.sim and options.speedup <= 1.0:
+        return LinkSettings(link_lost_after_s=lost_real)
+    return LinkSettings(
+        link_lost_after_s=lost_real,
+        not_ready_retry_s=0.2,
+        commands=CommandSettings(timeout_s=0.25, retries=6, in_progress_timeout_s=5.0),
+        mission=MissionSettings(
+            timeout_s=0.4, item_timeout_s=0.15, retries=8, no_space_retry_s=0.5
+        ),
+    )
+
+
+def sim_configs(mission: Mission, faults: SimFaults) -> list[MockVehicleConfig]:
+    """The mission's mock fleet with the requested faults."""
+    configs = []
+    for config in mock_fleet_configs(mission):
+        cuts = tuple(LinkCut(at, d) for sysid, at, d in faults.cuts if sysid == config.sysid)
+        link = LinkFaults(
+            loss_to_gcs=faults.loss,
+            loss_from_gcs=faults.loss,
+            latency_s=faults.latency_s,
+            cuts=cuts,
+        )
+        battery = dataclasses.replace(
+            config.battery,
+            noise_fraction=faults.battery_noise,
+            sags=tuple(BatterySag(at, pct) for at, pct in faults.sags),
+        )
+        configs.append(
+            dataclasses.replace(config, battery=battery, faults=VehicleFaults(link=link))
+        )
+    return configs
+
+
+async def run_live(
+    mission: Mission,
+    options: LiveOptions,
+    mission_log: MissionLog,
+    notify: Notify,
+    abort: asyncio.Event,
+    on_start: Callable[[LiveRun], None] | None = None,
+) -> RunResult:
+    """Run the mission to its end (or abort) and return what happened."""
+    clock: Clock = ScaledClock(options.speedup)
+    views = {v.sysid: VehicleView(v.sysid, v.type.value) for v in mission.fleet}
+    run = LiveRun(mission, clock, views)
+    if on_start is not None:
+        on_start(run)
+    links: dict[int, VehicleLink] = {}
+    fleet: MockFleet | None = None
+    t0 = clock.now()
+    try:
+        settings = link_settings(options, clock)
+        for spec in mission.fleet:
+            try:
+                links[spec.sysid] = await VehicleLink.connect(
+                    spec.connection, target_system=spec.sysid, settings=settings
+                )
+            except LinkError as exc:
+                raise MissionRefused(f"vehicle {spec.sysid}: {exc}", EXIT_BAD_INPUT) from exc
+            _tap(links[spec.sysid], spec.sysid, mission_log, clock, t0)
+        if options.sim:
+            fleet = MockFleet(
+                sim_configs(mission, options.faults),
+                mission.map,
+                mission.geo,
+                clock,
+                seed=options.seed,
+            )
+            await fleet.start()
+        pilots = {
+            spec.sysid: Pilot(
+                links[spec.sysid],
+                VehicleKind(spec.type.value),
+                mission.geo,
+                clock,
+                spec.speed_m_s,
+                options.agent.pilot,
+            )
+            for spec in mission.fleet
+        }
+        await asyncio.gather(
+            *(
+                _ready(spec, links[spec.sysid], pilots[spec.sysid], mission, options, views)
+                for spec in mission.fleet
+            )
+        )
+        return await _fly(mission, options, run, links, pilots, mission_log, notify, abort, t0)
+    finally:
+        for link in links.values():
+            await link.close()
+        if fleet is not None:
+            await fleet.stop()
+
+
+def _tap(link: VehicleLink, sysid: int, mission_log: MissionLog, clock: Clock, t0: float) -> None:
+    def tap(direction: str, frame: bytes, _msg: object) -> None:
+        mission_log.raw(sysid, direction == "out", clock.now() - t0, frame)
+
+    link.transport.add_tap(tap)
+
+
+async def _ready(
+    spec: VehicleSpec,
+    link: VehicleLink,
+    pilot: Pilot,
+    mission: Mission,
+    options: LiveOptions,
+    views: dict[int, VehicleView],
+) -> None:
+    """Check one vehicle before the start; raise ``MissionRefused`` saying what is wrong."""
+    who = f"vehicle {spec.sysid} ({spec.connection})"
+    try:
+        status = await link.wait_heartbeat(timeout_s=options.heartbeat_timeout_s)
+    except LinkError as exc:
+        raise MissionRefused(f"{who}: {exc}") from exc
+    profile = link.profile
+    if profile is None or profile.kind.value != spec.type.value:
+        seen = "an unknown vehicle type" if profile is None else f"a {profile.kind.value}"
+        raise MissionRefused(
+            f"{who}: the mission says {spec.type.value} but its heartbeat says {seen} "
+            f"(MAV_TYPE {status.type_name})",
+            EXIT_BAD_INPUT,
+        )
+    await link.request_rates(RATES_HZ)
+    wait_s = pilot.real_s(options.telemetry_timeout_s)
+    try:
+        pos = await link.wait_for(Topic.POSITION, lambda _p: True, wait_s)
+        if link.telemetry.battery.remaining_pct is None:
+            await link.wait_for(Topic.BATTERY, lambda b: b.remaining_pct is not None, wait_s)
+    except TimeoutError:
+        raise MissionRefused(
+            f"{who}: no position or battery telemetry within {options.telemetry_timeout_s:g} s"
+        ) from None
+    if spec.sensing == Sensing.RANGE and not (link.telemetry.ranges or link.telemetry.obstacles):
+        await pilot._request(mavlink.MAVLINK_MSG_ID_DISTANCE_SENSOR)
+        try:
+            await asyncio.wait_for(_any_range(link), wait_s)
+        except TimeoutError:
+            raise MissionRefused(
+                f"{who} is set to 'sensing: range' but sends no range readings "
+                f"(DISTANCE_SENSOR or OBSTACLE_DISTANCE) within {options.telemetry_timeout_s:g} s:"
+                " enable its proximity sensors, or set 'sensing: map' if it is to take the map "
+                "as known",
+                EXIT_BAD_INPUT,
+            ) from None
+    cell = pilot.cell_of(pos)
+    if cell != mission.charger:
+        raise MissionRefused(
+            f"{who} is on cell {cell}, not on the charger {mission.charger}: bring it to the pad"
+        )
+    if status.armed:
+        raise MissionRefused(f"{who} is armed on the pad: disarm it before the start")
+    try:
+        await pilot.set_mode(FlightMode.GUIDED)
+    except LinkError as exc:
+        raise MissionRefused(f"{who}: not ready: {exc}") from exc
+    views[spec.sysid].phase = Phase.READY
+    views[spec.sysid].battery_pct = link.telemetry.battery.remaining_pct
+
+
+async def _any_range(link: VehicleLink) -> None:
+    waits = [
+        asyncio.ensure_future(link.wait_for(topic, lambda _r: True, 1e9))
+        for topic in (Topic.RANGE, Topic.OBSTACLES)
+    ]
+    try:
+        await asyncio.wait(waits, return_when=asyncio.FIRST_COMPLETED)
+    finally:
+        for w in waits:
+            w.cancel()
+        await asyncio.gather(*waits, return_exceptions=True)
+
+
+async def _fly(
+    mission: Mission,
+    options: LiveOptions,
+    run: LiveRun,
+    links: dict[int, VehicleLink],
+    pilots: dict[int, Pilot],
+    mission_log: MissionLog,
+    notify: Notify,
+    abort: asyncio.Event,
+    t0: float,
+) -> RunResult:
+    wall0 = time.perf_counter()
+    estimators = {
+        v.sysid: EnergyEstimator(model_prior(VehicleKind(v.type.value)), options.energy)
+        for v in mission.fleet
+    }
+    coordinator = Coordinator(
+        mission.map.shape,
+        mission.charger,
+        [AgentSpec(v.sysid, estimators[v.sysid].estimate_pct_per_m) for v in mission.fleet],
+        planner_settings(mission, options.seed),
+        prior=prior_map(mission),
+    )
+    reachable = mission.map.reachable(mission.charger)
+    record = MissionRecord(
+        mission=mission.name,
+        shape=mission.map.shape,
+        cell_size_m=mission.cell_size_m,
+        charger=mission.charger,
+        reserve_pct=mission.planner.reserve_pct,
+        free_cells=int(reachable.sum()),
+        reachable=reachable,
+    )
+    for v in mission.fleet:
+        record.add_agent(v.sysid, links[v.sysid].telemetry.battery.remaining_pct or 100.0)
+    planner = SharedPlanner(coordinator, record, run.clock, mission_log, notify, run.views)
+    planner.t0 = t0
+    run.planner = planner
+    run.started_at = run.clock.now()
+    agents = {
+        v.sysid: Agent(
+            v,
+            links[v.sysid],
+            pilots[v.sysid],
+            planner,
+            estimators[v.sysid],
+            run.views[v.sysid],
+            mission.map,
+            options.agent,
+        )
+        for v in mission.fleet
+    }
+    mission_log.event(planner.t_s, f"mission {mission.name} starts with {len(agents)} vehicles")
+    tasks = {sysid: asyncio.ensure_future(agent.run()) for sysid, agent in agents.items()}
+    stop = asyncio.ensure_future(abort.wait())
+    limit = None if options.time_limit_s is None else run.clock.to_real(options.time_limit_s)
+    try:
+        done, _ = await asyncio.wait(
+            [*tasks.values(), stop], timeout=limit, return_when=asyncio.FIRST_COMPLETED
+        )
+        while stop not in done and not all(t.done() for t in tasks.values()):
+            remaining = None if limit is None else limit - (time.perf_counter() - wall0)
+            if remaining is not None and remaining <= 0:
+                break
+            done, _ = await asyncio.wait(
+                [*(t for t in tasks.values() if not t.done()), stop],
+                timeout=remaining,
+                return_when=asyncio.FIRST_COMPLETED,
+            )
+    finally:
+        interrupted = not all(t.done() for t in tasks.values())
+        for task in (*tasks.values(), stop):
+            task.cancel()
+        await asyncio.gather(*tasks.values(), stop, return_exceptions=True)
+    if interrupted:
+        run.aborted = True
+        why = "aborted by the operator" if abort.is_set() else "time limit reached"
+        notify(f"mission {why}: sending every vehicle to charge", Level.WARNING, None)
+        mission_log.event(planner.t_s, f"mission {why}", "warning")
+        going = [a for sysid, a in agents.items() if not record.agents[sysid].lost]
+        outcomes = await asyncio.gather(
+            *(send_home(agent, options.abort_return_s) for agent in going),
+            return_exceptions=True,
+        )
+        for agent, outcome in zip(going, outcomes, strict=True):
+            run.views[agent.id].phase = Phase.ABORTED
+            notify(f"vehicle {agent.id}: {outcome}", Level.INFO, agent.id)
+    planner.write_coverage()
+    result = record.result(
+        coordinator,
+        wall_s=time.perf_counter() - wall0,
+        planner_s=planner.planner_s,
+        mission_s=planner.t_s,
+        extra={
+            "aborted": int(interrupted),
+            "speedup": options.speedup,
+            "moves_held_back": planner.held_back,
+            "waits": planner.waits,
+        },
+    )
+    mission_log.result(planner.t_s, result)
+    return result

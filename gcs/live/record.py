@@ -1,0 +1,150 @@
+"""What a live mission did, kept as it happens and turned into a ``RunResult`` at the end.
+
+A live mission has no iterations: each vehicle moves at its own pace. A
+vehicle's track and battery series get one entry per arrival (and per
+charge), and "iterations" are arrivals: the fleet's arrival count orders the
+coverage series and the BTP records, and ``iterations`` is the number of
+moves of the busiest vehicle until coverage was complete (what a lockstep
+run would count). Mission times are in ``extra``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gcs.result import AgentTrace, BtpRecord, RunResult
+from planner.coordinator import Coordinator, EventKind, PlannerEvent
+from planner.grid import Cell, manhattan
+
+
+@dataclass
+class AgentLog:
+    track: list[Cell]
+    battery_pct: list[float]
+    moves: int = 0
+    path_moves: int = 0
+    homing_moves: int = 0
+    odometer_m: float = 0.0
+    lost: bool = False
+    #: Set when the current move was decided while homing (coverage complete).
+    homing: bool = False
+    moves_at_coverage: int | None = None
+
+
+@dataclass
+class MissionRecord:
+    mission: str
+    shape: tuple[int, int]
+    cell_size_m: float
+    charger: Cell
+    reserve_pct: float
+    free_cells: int
+    reachable: np.ndarray
+    agents: dict[int, AgentLog] = field(default_factory=dict)
+    covered_series: list[int] = field(default_factory=list)
+    btps: dict[Cell, dict[str, int | None]] = field(default_factory=dict)
+    arrivals: int = 0
+    coverage_arrivals: int | None = None
+    coverage_s: float | None = None
+
+    def add_agent(self, agent: int, battery_pct: float) -> None:
+        self.agents[agent] = AgentLog(track=[self.charger], battery_pct=[battery_pct])
+
+    def arrived(self, agent: int, cell: Cell, battery_pct: float, covered: int) -> None:
+        log = self.agents[agent]
+        moves = manhattan(log.track[-1], cell)
+        log.moves += moves
+        if log.homing:
+            log.homing_moves += moves
+        else:
+            log.path_moves += moves
+        log.track.append(cell)
+        log.battery_pct.append(battery_pct)
+        self.arrivals += 1
+        self.covered_series.append(covered)
+
+    def battery(self, agent: int, cell: Cell, battery_pct: float) -> None:
+        """A battery sample without a move (on the charger)."""
+        log = self.agents[agent]
+        log.track.append(cell)
+        log.battery_pct.append(battery_pct)
+
+    def planner_events(self, events: list[PlannerEvent], t_s: float) -> None:
+        for event in events:
+            if event.kind == EventKind.BTP_DETECTED and event.cell not in self.btps:
+                self.btps[event.cell] = {
+                    "by": event.agent,
+                    "at": self.arrivals,
+                    "cov_by": None,
+                    "cov_at": None,
+                }
+            elif event.kind == EventKind.BTP_COVERED and event.cell in self.btps:
+                self.btps[event.cell].update(cov_by=event.agent, cov_at=self.arrivals)
+            elif event.kind == EventKind.COVERAGE_COMPLETE and self.coverage_arrivals is None:
+                self.coverage_arrivals = self.arrivals
+                self.coverage_s = t_s
+                for log in self.agents.values():
+                    log.moves_at_coverage = log.moves
+
+    def result(
+        self,
+        coordinator: Coordinator,
+        wall_s: float,
+        planner_s: float,
+        mission_s: float,
+        extra: dict[str, float | int | str] | None = None,
+    ) -> RunResult:
+        covered = coordinator.belief.covered_grid()
+        agents = tuple(
+            AgentTrace(
+                id=i,
+                track=tuple(log.track),
+                battery_pct=tuple(log.battery_pct),
+                path_m=log.path_moves * self.cell_size_m,
+                homing_m=log.homing_moves * self.cell_size_m,
+                charges=coordinator.charges(i),
+                min_battery_pct=min(log.battery_pct),
+                lost=log.lost,
+            )
+            for i, log in self.agents.items()
+        )
+        iterations = max(
+            (
+                log.moves_at_coverage if log.moves_at_coverage is not None else log.moves
+                for log in self.agents.values()
+            ),
+            default=0,
+        )
+        return RunResult(
+            mission=self.mission,
+            shape=self.shape,
+            cell_size_m=self.cell_size_m,
+            charger=self.charger,
+            reserve_pct=self.reserve_pct,
+            belief=coordinator.belief.state_grid(),
+            covered=covered,
+            agents=agents,
+            btps=tuple(
+                BtpRecord(cell, int(b["by"] or 0), int(b["at"] or 0), b["cov_by"], b["cov_at"])
+                for cell, b in self.btps.items()
+            ),
+            covered_per_iteration=tuple(self.covered_series),
+            iterations=iterations,
+            free_cells=self.free_cells,
+            covered_cells=int((covered & self.reachable).sum()),
+            out_of_range_cells=len(coordinator.out_of_range_cells()),
+            safety_net_fires=coordinator.safety_net_fires,
+            wall_s=wall_s,
+            planner_s=planner_s,
+            extra={
+                "live": 1,
+                "mission_s": round(mission_s, 2),
+                "coverage_s": round(self.coverage_s, 2) if self.coverage_s is not None else -1,
+                "arrivals": self.arrivals,
+                "btps_detected": coordinator.btps_detected,
+                **{f"odometer_m_{i}": round(log.odometer_m, 2) for i, log in self.agents.items()},
+                **(extra or {}),
+            },
+        )

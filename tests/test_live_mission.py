@@ -1,0 +1,277 @@
+"""``gcs run`` end to end: the real CLI over real UDP on loopback against the mock fleet.
+
+Two set-ups: the mock fleet in the test's own event loop while the CLI runs
+in a worker thread (so the test can look at the vehicles afterwards: on the
+charger, disarmed), and ``gcs run --sim`` with injected faults (battery
+noise and sags, a link cut, packet loss). Missions are small and sped up;
+every run has a mission time limit, so nothing can hang.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import socket
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from gcs.cli import main
+from gcs.mission import load_mission
+from gcs.sitl_cli import mock_fleet_configs
+from sitl_mock.fleet import MockFleet
+from vehicles.clock import ScaledClock
+
+pytestmark = pytest.mark.timeout(90)
+
+SPEEDUP = 25.0
+TIME_LIMIT_S = "900"
+
+SMALL = """\
+##############
+##############
+#####....#####
+#####........#
+#............#
+#........#..##
+#........#..##
+#####....#..##
+#........#..##
+#........#####
+#####....#####
+#######C######
+"""
+
+MID = """\
+####################
+####################
+##....##############
+##....##############
+##....##....########
+##....##....########
+###..###....########
+###..###....########
+###..###....########
+###..###....#...####
+###..###....#...####
+###..###....#...####
+##..........#...####
+##..............####
+########........####
+##########C#########
+"""
+
+
+def free_ports(count: int) -> list[int]:
+    """Loopback UDP ports nobody uses right now (each vehicle gets its own)."""
+    sockets = []
+    try:
+        for _ in range(count):
+            s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            s.bind(("127.0.0.1", 0))
+            sockets.append(s)
+        return [s.getsockname()[1] for s in sockets]
+    finally:
+        for s in sockets:
+            s.close()
+
+
+def write_mission(
+    tmp_path: Path, map_text: str, vehicles: list[dict[str, Any]], energy: float = 0.5
+) -> Path:
+    (tmp_path / "map.txt").write_text(map_text)
+    ports = free_ports(len(vehicles))
+    lines = ["name: test", "map: map.txt", "fleet:", "  vehicles:"]
+    for i, (v, port) in enumerate(zip(vehicles, ports, strict=True), 1):
+        fields = {
+            "sysid": i,
+            "connection": f"udpin:127.0.0.1:{port}",
+            "energy_per_m_pct": energy,
+            **v,
+        }
+        lines.append(
+            "    - {" + ", ".join(f"{k}: {json.dumps(x)}" for k, x in fields.items()) + "}"
+        )
+    lines += ["planner:", "  reserve_pct: 20"]
+    path = tmp_path / "mission.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def report(out: Path) -> dict[str, Any]:
+    return json.loads((out / "report.json").read_text())
+
+
+def planned_path_m(mission: Path, tmp_path: Path) -> float:
+    out = tmp_path / "plan"
+    assert main(["plan", str(mission), "--out", str(out), "--quiet"]) == 0
+    return float(report(out)["total_path_m"])
+
+
+async def run_against_fleet(mission_path: Path, out: Path, *extra: str) -> tuple[int, MockFleet]:
+    """The mock fleet here, ``gcs run`` (without --sim) in a worker thread."""
+    mission = load_mission(mission_path)
+    fleet = MockFleet(
+        mock_fleet_configs(mission), mission.map, mission.geo, ScaledClock(SPEEDUP), seed=1
+    )
+    argv = [
+        "run",
+        str(mission_path),
+        "--speedup",
+        str(SPEEDUP),
+        "--quiet",
+        "--time-limit",
+        TIME_LIMIT_S,
+        "--heartbeat-timeout",
+        "10",
+        "--out",
+        str(out),
+        *extra,
+    ]
+    async with fleet:
+        code = await asyncio.to_thread(main, argv)
+    return code, fleet
+
+
+def assert_parked(fleet: MockFleet, charger: tuple[int, int]) -> None:
+    for vehicle in fleet.vehicles.values():
+        assert vehicle.cell == charger, vehicle.id
+        assert not vehicle.armed, vehicle.id
+        assert vehicle.landed, vehicle.id
+        assert not vehicle.dead, vehicle.id
+
+
+@pytest.mark.parametrize(
+    ("map_text", "vehicles"),
+    [
+        pytest.param(SMALL, [{"type": "rover"}], id="one-rover"),
+        pytest.param(MID, [{"type": "rover"}] * 3, id="three-rovers"),
+        pytest.param(
+            MID,
+            # Same speeds as the rovers: the lockstep plan moves everyone once per step.
+            [{"type": "rover"}, {"type": "copter", "speed_m_s": 2.0}, {"type": "rover"}],
+            id="mixed",
+        ),
+    ],
+)
+async def test_complete_coverage_everyone_parked(
+    tmp_path: Path, map_text: str, vehicles: list[dict[str, Any]]
+) -> None:
+    mission = write_mission(tmp_path, map_text, vehicles)
+    out = tmp_path / "live"
+    code, fleet = await run_against_fleet(mission, out)
+    got = report(out)
+    assert code == 0, got
+    assert got["complete"] and got["coverage_pct"] == 100.0
+    assert got["lost_agents"] == 0
+    assert_parked(fleet, load_mission(mission).charger)
+    planned = planned_path_m(mission, tmp_path)
+    # One vehicle flies exactly the plan. Several vehicles deciding at their own pace
+    # interleave differently from the lockstep plan, and the planner's multi-agent
+    # choices are sensitive to that order: measured live/plan ratios on these missions
+    # spread from 0.93 to 1.25, so more than 15 % is allowed for fleets (see the report).
+    tolerance = 0.15 if len(vehicles) == 1 else 0.35
+    assert abs(got["total_path_m"] - planned) <= tolerance * planned, (
+        got["total_path_m"],
+        planned,
+    )
+    assert (out / "mission.mcap").stat().st_size > 0
+    assert (out / "coverage.png").exists()
+
+
+async def test_charging_trips(tmp_path: Path) -> None:
+    """A battery that does not last the whole mission: the rover comes back to charge."""
+    mission = write_mission(tmp_path, MID, [{"type": "rover"}], energy=0.9)
+    out = tmp_path / "live"
+    code, fleet = await run_against_fleet(mission, out)
+    got = report(out)
+    assert code == 0, got
+    assert got["charges_total"] >= 1
+    assert got["agents"][0]["min_battery_pct"] >= 20.0 - 1.0
+    assert_parked(fleet, load_mission(mission).charger)
+
+
+def run_sim(mission: Path, out: Path, *extra: str) -> int:
+    return main(
+        [
+            "run",
+            str(mission),
+            "--sim",
+            "--speedup",
+            str(SPEEDUP),
+            "--quiet",
+            "--time-limit",
+            TIME_LIMIT_S,
+            "--out",
+            str(out),
+            *extra,
+        ]
+    )
+
+
+def test_battery_noise_and_sags_lose_nobody(tmp_path: Path) -> None:
+    mission = write_mission(tmp_path, MID, [{"type": "rover"}, {"type": "rover"}], energy=0.9)
+    out = tmp_path / "live"
+    code = run_sim(
+        mission,
+        out,
+        "--sim-battery-noise",
+        "0.3",
+        "--sim-sag",
+        "30:10",
+        "--sim-sag",
+        "90:8",
+        "--seed",
+        "4",
+    )
+    got = report(out)
+    assert code == 0, got
+    assert got["lost_agents"] == 0 and got["complete"]
+    assert min(a["min_battery_pct"] for a in got["agents"]) > 0
+
+
+def test_cut_link_vehicle_is_lost_and_others_finish(tmp_path: Path) -> None:
+    mission = write_mission(tmp_path, MID, [{"type": "rover"}] * 3)
+    out = tmp_path / "live"
+    code = run_sim(mission, out, "--sim-cut", "2:20:1000", "--lost-after", "15")
+    got = report(out)
+    assert code == 1, got  # a vehicle was lost
+    assert got["coverage_pct"] == 100.0
+    assert [a["id"] for a in got["agents"] if a["lost"]] == [2]
+
+
+def test_packet_loss_still_complete(tmp_path: Path) -> None:
+    mission = write_mission(
+        tmp_path, SMALL, [{"type": "rover"}, {"type": "copter", "speed_m_s": 4.0}]
+    )
+    out = tmp_path / "live"
+    code = run_sim(mission, out, "--sim-loss", "0.1")
+    got = report(out)
+    assert code == 0, got
+    assert got["complete"] and got["lost_agents"] == 0
+
+
+async def test_range_vehicle_without_ranges_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    mission_path = write_mission(tmp_path, SMALL, [{"type": "rover"}])
+    mission = load_mission(mission_path)
+    configs = [
+        c.__class__(
+            c.sysid,
+            c.vehicle.__class__(**{**c.vehicle.__dict__, "range_sensing": False}),
+            c.link,
+            c.battery,
+        )
+        for c in mock_fleet_configs(mission)
+    ]
+    fleet = MockFleet(configs, mission.map, mission.geo, ScaledClock(SPEEDUP))
+    async with fleet:
+        code = await asyncio.to_thread(
+            main, ["run", str(mission_path), "--speedup", str(SPEEDUP), "--quiet"]
+        )
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "sends no range readings" in err and "sensing: map" in err
+    assert not fleet.vehicles[1].armed
