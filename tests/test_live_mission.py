@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from mcap.reader import make_reader
 
 from gcs.cli import main
 from gcs.mission import load_mission
@@ -153,6 +154,7 @@ def assert_parked(fleet: MockFleet, charger: tuple[int, int]) -> None:
             [{"type": "rover"}, {"type": "copter", "speed_m_s": 2.0}, {"type": "rover"}],
             id="mixed",
         ),
+        pytest.param(MID, [{"type": "rover"}] * 5, id="five-rovers"),
     ],
 )
 async def test_complete_coverage_everyone_parked(
@@ -176,8 +178,26 @@ async def test_complete_coverage_everyone_parked(
         got["total_path_m"],
         planned,
     )
-    assert (out / "mission.mcap").stat().st_size > 0
     assert (out / "coverage.png").exists()
+    assert_log_rebuilds_the_report(out, got, [v + 1 for v in range(len(vehicles))])
+
+
+def assert_log_rebuilds_the_report(out: Path, got: dict[str, Any], sysids: list[int]) -> None:
+    """The MCAP has the raw traffic and the derived topics, and `gcs report` on it
+    gives the run's own report."""
+    with (out / "mission.mcap").open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    topics = {channel.topic for channel in summary.channels.values()}
+    schemas = {schema.name for schema in summary.schemas.values()}
+    for sysid in sysids:
+        assert {f"/mavlink/{sysid}/in", f"/mavlink/{sysid}/out"} <= topics
+        assert f"/vehicle/{sysid}/fix" in topics
+    assert {"/map", "/events", "/run/result"} <= topics
+    assert {"foxglove.Grid", "foxglove.LocationFix", "foxglove.Log"} <= schemas
+    rebuilt = out / "rebuilt"
+    assert main(["report", str(out / "mission.mcap"), "--out", str(rebuilt), "--quiet"]) == 0
+    assert report(rebuilt) == got
 
 
 async def test_charging_trips(tmp_path: Path) -> None:
