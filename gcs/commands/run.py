@@ -17,7 +17,7 @@ from pathlib import Path
 
 from rich.console import Console
 
-from gcs.commands.plan import load, write_outputs
+from gcs.commands.plan import LOG_NAME, load, open_log, write_outputs
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.live.agent import AgentSettings
 from gcs.live.display import LiveDisplay
@@ -29,7 +29,6 @@ from gcs.report import print_summary
 from gcs.result import RunResult
 
 #: The mission log's file name in ``--out``.
-LOG_NAME = "mission.mcap"
 EXIT_INTERRUPTED = 130
 SIM_SPEEDUP = 10.0
 
@@ -161,28 +160,6 @@ def options_from(args: argparse.Namespace, mission: Mission) -> LiveOptions:
     )
 
 
-def open_log(mission: Mission, out: Path, errors: Console) -> MissionLog:
-    """The MCAP mission log in ``out``, if the MCAP writer is available; else no log."""
-    try:
-        from gcs.mcap_log import McapMissionLog
-    except ImportError:
-        errors.print("[yellow]warning:[/] MCAP logging is not available; no mission.mcap")
-        return NullLog()
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        return McapMissionLog(  # type: ignore[return-value]
-            out / LOG_NAME,
-            mission_name=mission.name,
-            shape=mission.map.shape,
-            cell_size_m=mission.cell_size_m,
-            charger=mission.charger,
-            geo=mission.geo,
-            reserve_pct=mission.planner.reserve_pct,
-        )
-    except OSError as exc:
-        raise UsageError(f"--out: cannot write to {out}: {exc.strerror}") from exc
-
-
 def run(args: argparse.Namespace) -> int:
     mission = load(args)
     options = options_from(args, mission)
@@ -194,7 +171,7 @@ def run(args: argparse.Namespace) -> int:
     reach = check_range(mission)
     if reach.out_of_range:
         errors.print(f"[yellow]warning:[/] {reach.message()}")
-    mission_log = open_log(mission, args.out, errors) if args.out else NullLog()
+    mission_log: MissionLog = open_log(mission, args.out) if args.out else NullLog()
     display = LiveDisplay(quiet=args.quiet, console=console)
     try:
         result, interrupted = asyncio.run(_main(mission, options, mission_log, display))
