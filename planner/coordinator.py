@@ -16,7 +16,7 @@ with room for the whole fleet: agents standing on it occupy nothing.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from enum import IntEnum, StrEnum
 
@@ -26,7 +26,7 @@ from planner import btp
 from planner.belief import UNREACHED, MapBelief
 from planner.fast_search import TargetSearch
 from planner.grid import MOVES, Cell, CellState, Direction, manhattan
-from planner.paths import nearest, nearest_ranked, path_to_charger, shortest_path
+from planner.paths import path_to_charger, shortest_path
 from planner.prm import Roadmap
 from planner.settings import (
     AgentSpec,
@@ -398,11 +398,11 @@ class Coordinator:
             tiers.append((_Tier.NET, uncovered))
         any_candidate = False
         for tier, pool in tiers:
-            if pool is uncovered and self._roadmap is None:
-                found = self._nearest_uncovered(a)
+            if self._roadmap is None:
+                found = self._nearest_affordable(a, None if pool is uncovered else pool)
                 if found is None:
                     any_candidate = any_candidate or any(
-                        i not in claims and self._in_range(i) for i in uncovered
+                        i not in claims and self._in_range(i) for i in pool
                     )
                     continue
                 any_candidate = True
@@ -411,7 +411,9 @@ class Coordinator:
                 if not candidates:
                     continue
                 any_candidate = True
-                found = self._nearest_affordable(a, candidates)
+                found = self._roadmap.nearest(
+                    self.belief, a.index, candidates, lambda i, d: self._can_afford(a, d, i)
+                )
             if found is HELD:
                 a.mode = AgentMode.IDLE
                 a.held_backoff = min(2 * a.held_backoff + 1, self.settings.held_backoff_max)
@@ -445,49 +447,18 @@ class Coordinator:
         return WAIT
 
     def _nearest_affordable(
-        self, a: _Agent, candidates: set[int]
+        self, a: _Agent, pool: Iterable[int] | None
     ) -> tuple[int, list[int]] | _Held | None:
-        """The closest candidate the agent can afford, preferring those no other
-        working agent is closer to (they are likely to be swept by that agent).
+        """The closest target of ``pool`` (None: every uncovered cell) that the agent
+        can afford, preferring those no other working agent is closer to (they are
+        likely to be swept by that agent). Claimed and out-of-range cells are not
+        targets.
 
         With ``hold_radius``, when every candidate is nearer to another working
         agent, those within ``hold_radius`` cells of such an agent are left to it
         (it is about to sweep them: chasing them only walks beside it), and
-        ``HELD`` says that all of them are.
+        ``HELD`` says that all of them are. One compiled search ranks them all.
         """
-        if self._roadmap is not None:
-            return self._roadmap.nearest(
-                self.belief, a.index, candidates, lambda i, d: self._can_afford(a, d, i)
-            )
-        if not self.settings.spread:
-            return self._nearest_of(a, candidates)
-        others = self._working_cells(a)
-        cell_of = self.belief.cell
-        hold = self.settings.hold_radius
-
-        def nearer_than(i: int, d: int) -> bool:
-            r, c = cell_of(i)
-            return all(abs(r - o[0]) + abs(c - o[1]) >= d for o in others)
-
-        def rank(i: int, d: int) -> int | None:
-            if not self._can_afford(a, d, i):
-                return None
-            if nearer_than(i, d):
-                return _Rank.UNCONTESTED
-            if hold and nearer_than(i, min(d, hold + 1)):
-                return _Rank.BEYOND_HOLD
-            return _Rank.CONTESTED
-
-        found = nearest_ranked(self.belief, a.index, candidates, rank, len(_Rank))
-        if found is None:
-            return None
-        level, goal, path = found
-        if level == _Rank.CONTESTED and hold:
-            return HELD
-        return goal, path
-
-    def _nearest_uncovered(self, a: _Agent) -> tuple[int, list[int]] | _Held | None:
-        """``_nearest_affordable`` over every unclaimed uncovered cell, compiled."""
         spread = self.settings.spread
         hold = self.settings.hold_radius if spread else 0
         found = self._search.run(
@@ -500,6 +471,7 @@ class Coordinator:
             self._working_cells(a) if spread else [],
             hold,
             list(self._claims),
+            pool,
         )
         if found is None:
             return None
@@ -521,11 +493,6 @@ class Coordinator:
             for b in self._agents.values()
             if b is not a and b.mode in (AgentMode.EXPLORE, AgentMode.TRANSIT)
         ]
-
-    def _nearest_of(self, a: _Agent, candidates: set[int]) -> tuple[int, list[int]] | None:
-        return nearest(
-            self.belief, a.index, lambda i, d: i in candidates and self._can_afford(a, d, i)
-        )
 
     # -- staying alive policy (Algorithm 2) ------------------------------------
 

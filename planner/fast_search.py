@@ -10,6 +10,8 @@ compiled to machine code.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 from numba import njit
 
@@ -106,6 +108,7 @@ class TargetSearch:
         self.stamp = 0
         self.state = np.frombuffer(belief.state, dtype=np.uint8)
         self.candidate = np.frombuffer(belief.uncovered_mask, dtype=np.uint8)
+        self._pool_mask = np.zeros(size, dtype=np.uint8)
         self.home = np.frombuffer(belief.charger_dist, dtype=np.int32)
 
     def run(
@@ -119,17 +122,25 @@ class TargetSearch:
         others: list[tuple[int, int]],
         hold: int,
         excluded: list[int],
+        pool: Iterable[int] | None = None,
     ) -> tuple[int, int, list[int]] | None:
-        """The best target as ``(rank, cell, path)``; ``excluded`` cells (claimed by
-        other agents) are not candidates."""
+        """The best target as ``(rank, cell, path)`` among ``pool`` (None: the
+        uncovered cells); ``excluded`` cells (claimed by other agents) are not
+        candidates."""
         self.stamp += 1
-        saved = [(i, self.candidate[i]) for i in excluded]
+        if pool is None:
+            mask = self.candidate
+        else:
+            mask = self._pool_mask
+            pool = list(pool)
+            mask[pool] = 1
+        saved = [(i, mask[i]) for i in excluded]
         for i, _ in saved:
-            self.candidate[i] = 0
+            mask[i] = 0
         try:
             rank, cell = _search(
                 self.state,
-                self.candidate,
+                mask,
                 self.home,
                 start,
                 self.belief.stride,
@@ -148,7 +159,9 @@ class TargetSearch:
             )
         finally:
             for i, value in saved:
-                self.candidate[i] = value
+                mask[i] = value
+            if pool is not None:
+                mask[pool] = 0
         if rank < 0:
             return None
         path = [cell]

@@ -9,7 +9,7 @@ indices (see ``MapBelief``), the start excluded, the goal included.
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Callable, Collection, Container
+from collections.abc import Callable, Collection
 
 from planner.belief import MapBelief
 from planner.grid import CellState
@@ -46,49 +46,6 @@ def nearest(
                     return v, _unwind(parent, start, v)
                 nxt.append(v)
         frontier = nxt
-    return None
-
-
-def nearest_ranked(
-    belief: MapBelief,
-    start: int,
-    candidates: Container[int],
-    rank: Callable[[int, int], int | None],
-    levels: int,
-) -> tuple[int, int, list[int]] | None:
-    """One search for several acceptance rules at once, best rule first.
-
-    For cells in ``candidates``, ``rank(i, distance)`` gives the rule (0 is
-    best, up to ``levels - 1``) that cell ``i`` satisfies, or None. The search
-    stops at the first cell of rule 0; otherwise it returns the closest cell
-    of the best rule it met, as ``(rule, cell, path)``. One search instead of
-    one per rule.
-    """
-    state, (n, s, e, w) = belief.state, belief.steps
-    parent = {start: start}
-    best: list[int | None] = [None] * levels
-    frontier = [start]
-    distance = 0
-    while frontier:
-        distance += 1
-        nxt: list[int] = []
-        append = nxt.append
-        for u in frontier:
-            for v in (u + n, u + s, u + e, u + w):
-                if state[v] != _FREE or v in parent:
-                    continue
-                parent[v] = u
-                append(v)
-                if v in candidates:
-                    level = rank(v, distance)
-                    if level is not None and best[level] is None:
-                        if level == 0:
-                            return 0, v, _unwind(parent, start, v)
-                        best[level] = v
-        frontier = nxt
-    for level, cell in enumerate(best):
-        if cell is not None:
-            return level, cell, _unwind(parent, start, cell)
     return None
 
 
