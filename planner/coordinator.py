@@ -280,6 +280,14 @@ class Coordinator:
             if a.battery_pct < self.settings.resume_pct - _EPS:
                 return CHARGE
             a.mode = AgentMode.IDLE
+        if (
+            not at_charger
+            and a.mode not in (AgentMode.RETURN, AgentMode.HOMING)
+            and not self._can_afford(a, 0, a.index)
+        ):
+            # The battery fell without a move (a copter hovering while it waits, a
+            # sag, a worse estimate of its consumption): home now, before the reserve.
+            return self._go_charge(a)
         if a.make_way_for is not None:
             action = self._make_way(a)
             if action is not None:

@@ -254,3 +254,21 @@ def test_a_blocked_agent_only_takes_a_target_it_can_afford_to_come_back_from() -
     assert farthest == 4
     assert battery >= 20.0 - 1e-9
     assert coordinator.out_of_range_cells()  # the two far cells are reported, not skipped
+
+
+def test_an_agent_whose_battery_falls_while_it_waits_goes_home() -> None:
+    grid, readings = sensing("\n".join(["#######"] + ["#.....#"] * 5 + ["###C###"]))
+    cost = 2.0
+    coordinator = Coordinator(grid.shape, grid.charger, [AgentSpec(1, cost)], PlannerSettings())
+    cell = grid.charger
+    coordinator.observe(1, cell, readings(cell), 100.0)
+    for _ in range(4):
+        action = coordinator.decide(1)
+        assert action.kind == ActionKind.MOVE and action.to is not None
+        cell = action.to
+        coordinator.observe(1, cell, readings(cell), 100.0)
+    home = coordinator.belief.distance_to_charger(cell)
+    # Hovering drained it to just below what the way home needs above the reserve.
+    coordinator.update_battery(1, 20.0 + cost * home - 0.5)
+    assert coordinator.decide(1).kind == ActionKind.MOVE
+    assert coordinator.mode(1) == AgentMode.RETURN
