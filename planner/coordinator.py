@@ -186,11 +186,16 @@ class Coordinator:
 
     @property
     def coverage_complete(self) -> bool:
-        """Nothing is left that any agent can reach and come back from."""
-        if not self._complete and not any(self._in_range(i) for i in self.belief.uncovered):
-            self._complete = True
+        """Nothing is left that any agent can reach and come back from.
+
+        Judged afresh every time: online, a better estimate of the agents'
+        consumption can bring cells judged out of range back into range.
+        """
+        complete = not any(self._in_range(i) for i in self.belief.uncovered)
+        if complete and not self._complete:
             self._events.append(PlannerEvent(EventKind.COVERAGE_COMPLETE, -1))
-        return self._complete
+        self._complete = complete
+        return complete
 
     @property
     def finished(self) -> bool:
@@ -273,7 +278,11 @@ class Coordinator:
         if a.trailing is not None:
             self._release(a.trailing, a.id)
             a.trailing = None
-        if a.mode in (AgentMode.DONE, AgentMode.LOST):
+        if a.mode == AgentMode.LOST:
+            return WAIT
+        if a.mode in (AgentMode.DONE, AgentMode.HOMING) and not self.coverage_complete:
+            a.mode = AgentMode.IDLE  # back to work: something came into range again
+        if a.mode == AgentMode.DONE:
             return WAIT
         at_charger = a.index == self.belief.charger_index
         if a.mode == AgentMode.CHARGE:
@@ -449,8 +458,11 @@ class Coordinator:
                 self.safety_net_fires += 1
             self._events.append(PlannerEvent(kind, a.id, self.belief.cell(goal)))
             return self._follow(a, goal)
-        if any_candidate and a.index != self.belief.charger_index:
-            return self._go_charge(a)
+        if any_candidate and (
+            a.index != self.belief.charger_index
+            or a.battery_pct < self.settings.resume_pct - _EPS
+        ):
+            return self._go_charge(a)  # what is left needs more battery than it has
         a.mode = AgentMode.IDLE
         return WAIT
 

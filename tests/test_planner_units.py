@@ -272,3 +272,32 @@ def test_an_agent_whose_battery_falls_while_it_waits_goes_home() -> None:
     coordinator.update_battery(1, 20.0 + cost * home - 0.5)
     assert coordinator.decide(1).kind == ActionKind.MOVE
     assert coordinator.mode(1) == AgentMode.RETURN
+
+
+def test_cells_back_in_range_after_a_better_estimate_are_covered() -> None:
+    grid, readings = corridor(6)
+    coordinator = Coordinator(grid.shape, grid.charger, [AgentSpec(1, 10.0)], PlannerSettings())
+    cell, battery = grid.charger, 100.0
+    coordinator.observe(1, cell, readings(cell), battery)
+
+    def run(cost: float) -> None:
+        nonlocal cell, battery
+        for _ in range(100):
+            action = coordinator.decide(1)
+            if action.kind == ActionKind.CHARGE:
+                battery = 100.0
+                coordinator.update_battery(1, battery)
+            elif action.kind == ActionKind.MOVE:
+                assert action.to is not None
+                cell, battery = action.to, battery - cost
+                coordinator.observe(1, cell, readings(cell), battery)
+            elif coordinator.finished:
+                return
+
+    run(10.0)  # 10 %/m: 4 cells out and back, the two far cells are out of range
+    assert coordinator.finished and coordinator.out_of_range_cells()
+    coordinator.set_energy_per_m(1, 5.0)  # a better estimate: they are in range now
+    assert not coordinator.coverage_complete
+    run(5.0)
+    assert coordinator.finished and not coordinator.out_of_range_cells()
+    assert coordinator.belief.covered_count == int((~grid.obstacle).sum())
