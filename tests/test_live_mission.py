@@ -110,11 +110,17 @@ def planned_path_m(mission: Path, tmp_path: Path) -> float:
     return float(report(out)["total_path_m"])
 
 
-async def run_against_fleet(mission_path: Path, out: Path, *extra: str) -> tuple[int, MockFleet]:
+async def run_against_fleet(
+    mission_path: Path, out: Path, *extra: str, startup_delay_s: float = 0.0
+) -> tuple[int, MockFleet]:
     """The mock fleet here, ``gcs run`` (without --sim) in a worker thread."""
     mission = load_mission(mission_path)
     fleet = MockFleet(
-        mock_fleet_configs(mission), mission.map, mission.geo, ScaledClock(SPEEDUP), seed=1
+        mock_fleet_configs(mission, startup_delay_s=startup_delay_s),
+        mission.map,
+        mission.geo,
+        ScaledClock(SPEEDUP),
+        seed=1,
     )
     argv = [
         "run",
@@ -334,3 +340,17 @@ def test_demo_fleet_is_no_longer_than_the_plan(tmp_path: Path, agents: int) -> N
     assert code == 0, got
     assert got["complete"] and got["lost_agents"] == 0
     assert got["total_path_m"] <= 1.15 * planned, (got["total_path_m"], planned)
+
+
+async def test_waits_out_an_ardupilot_like_start_up(tmp_path: Path) -> None:
+    """Like ArduPilot just after boot, the vehicles refuse arming (pre-arm STATUSTEXT)
+    and answer a mission upload with MAV_MISSION_NO_SPACE for their first 40 s: the
+    ground station waits for readiness and retries instead of failing."""
+    mission = write_mission(tmp_path, SMALL, [{"type": "rover"}, {"type": "copter"}])
+    out = tmp_path / "live"
+    code, fleet = await run_against_fleet(mission, out, startup_delay_s=40.0)
+    got = report(out)
+    assert code == 0, got
+    assert got["complete"] and got["lost_agents"] == 0
+    assert_parked(fleet, load_mission(mission).charger)
+    assert all(vehicle.elapsed_s > 40.0 for vehicle in fleet.vehicles.values())
