@@ -16,6 +16,7 @@ with room for the whole fleet: agents standing on it occupy nothing.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from enum import IntEnum, StrEnum
@@ -459,8 +460,7 @@ class Coordinator:
             self._events.append(PlannerEvent(kind, a.id, self.belief.cell(goal)))
             return self._follow(a, goal)
         if any_candidate and (
-            a.index != self.belief.charger_index
-            or a.battery_pct < self.settings.resume_pct - _EPS
+            a.index != self.belief.charger_index or a.battery_pct < self.settings.resume_pct - _EPS
         ):
             return self._go_charge(a)  # what is left needs more battery than it has
         a.mode = AgentMode.IDLE
@@ -487,7 +487,7 @@ class Coordinator:
             self._move_cost(a),
             self.settings.reserve_pct - _EPS,
             self._best_move_cost(),
-            self.settings.resume_pct - self.settings.reserve_pct + _EPS,
+            self._range_budget_pct,
             self._working_cells(a) if spread else [],
             hold,
             list(self._claims),
@@ -501,10 +501,16 @@ class Coordinator:
         return goal, path
 
     def _best_move_cost(self) -> float:
+        """The cheapest move of any agent still in the mission (inf when none is)."""
         return min(
             (self._move_cost(b) for b in self._agents.values() if b.mode != AgentMode.LOST),
-            default=0.0,
+            default=math.inf,
         )
+
+    @property
+    def _range_budget_pct(self) -> float:
+        """Battery a full charge leaves for a round trip above the reserve."""
+        return self.settings.resume_pct - self.settings.reserve_pct + _EPS
 
     def _working_cells(self, a: _Agent) -> list[Cell]:
         """Where the other agents that are sweeping or on their way to sweep are."""
@@ -533,12 +539,7 @@ class Coordinator:
         home = self.belief.charger_dist[index]
         if home >= UNREACHED:
             return True  # not connected to what we know yet: cannot judge, keep it
-        budget = self.settings.resume_pct - self.settings.reserve_pct + _EPS
-        return any(
-            2 * home * self._move_cost(a) <= budget
-            for a in self._agents.values()
-            if a.mode != AgentMode.LOST
-        )
+        return 2 * home * self._best_move_cost() <= self._range_budget_pct
 
     def _go_charge(self, a: _Agent) -> Action:
         self._drop_claim(a)
