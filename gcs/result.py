@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from planner.coordinator import EventKind, PlannerEvent
 from planner.grid import Cell
 
 
@@ -18,6 +19,27 @@ class BtpRecord:
     detected_at: int
     covered_by: int | None = None
     covered_at: int | None = None
+
+
+class BtpLog:
+    """The BTP records of a run, kept from the planner's events as they come."""
+
+    def __init__(self) -> None:
+        self._records: dict[Cell, BtpRecord] = {}
+
+    def note(self, event: PlannerEvent, at: int) -> None:
+        """Take a planner event; ``at`` is when (an iteration, or an arrival count)."""
+        if event.cell is None:
+            return
+        if event.kind == EventKind.BTP_DETECTED and event.cell not in self._records:
+            self._records[event.cell] = BtpRecord(event.cell, event.agent, at)
+        elif event.kind == EventKind.BTP_COVERED and event.cell in self._records:
+            self._records[event.cell] = replace(
+                self._records[event.cell], covered_by=event.agent, covered_at=at
+            )
+
+    def records(self) -> tuple[BtpRecord, ...]:
+        return tuple(self._records.values())
 
 
 @dataclass(frozen=True)

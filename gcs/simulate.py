@@ -15,7 +15,7 @@ import numpy as np
 
 from gcs.mission import Mission
 from gcs.mission_log import MissionLog
-from gcs.result import AgentTrace, BtpRecord, RunResult
+from gcs.result import AgentTrace, BtpLog, RunResult
 from planner.coordinator import ActionKind, AgentMode, Coordinator, EventKind, PlannerEvent
 from planner.grid import Cell, CellState
 from planner.settings import AgentSpec, PathPlannerKind, PlannerSettings
@@ -117,7 +117,7 @@ def simulate(
     path_moves = dict.fromkeys(ids, 0)
     homing_moves = dict.fromkeys(ids, 0)
     covered_series = [coordinator.belief.covered_count]
-    btps: dict[Cell, dict[str, int | None]] = {}
+    btps = BtpLog()
     coverage_iterations: int | None = None
 
     def log_state(iteration: int) -> None:
@@ -138,15 +138,7 @@ def simulate(
                     text = f"{event.kind.value}: vehicle {event.agent}{where}"
                     level = "error" if event.kind == EventKind.LOST else "info"
                     log.event(iteration, text, level, event.agent)
-            if event.kind == EventKind.BTP_DETECTED and event.cell not in btps:
-                btps[event.cell] = {
-                    "by": event.agent,
-                    "at": iteration,
-                    "cov_by": None,
-                    "cov_at": None,
-                }
-            elif event.kind == EventKind.BTP_COVERED and event.cell in btps:
-                btps[event.cell].update(cov_by=event.agent, cov_at=iteration)
+            btps.note(event, iteration)
         if btps_changed:
             assert log is not None
             log.btps(iteration, coordinator.btps())
@@ -227,10 +219,7 @@ def simulate(
         belief=coordinator.belief.state_grid(),
         covered=covered,
         agents=agents,
-        btps=tuple(
-            BtpRecord(cell, int(b["by"] or 0), int(b["at"] or 0), b["cov_by"], b["cov_at"])
-            for cell, b in btps.items()
-        ),
+        btps=btps.records(),
         covered_per_iteration=tuple(covered_series),
         iterations=coverage_iterations if coverage_iterations is not None else iteration,
         free_cells=free_cells,

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gcs.result import AgentTrace, BtpRecord, RunResult
+from gcs.result import AgentTrace, BtpLog, RunResult
 from planner.coordinator import Coordinator, EventKind, PlannerEvent
 from planner.grid import Cell, manhattan
 
@@ -44,7 +44,7 @@ class MissionRecord:
     reachable: np.ndarray
     agents: dict[int, AgentLog] = field(default_factory=dict)
     covered_series: list[int] = field(default_factory=list)
-    btps: dict[Cell, dict[str, int | None]] = field(default_factory=dict)
+    btps: BtpLog = field(default_factory=BtpLog)
     arrivals: int = 0
     coverage_arrivals: int | None = None
     coverage_s: float | None = None
@@ -73,16 +73,8 @@ class MissionRecord:
 
     def planner_events(self, events: list[PlannerEvent], t_s: float) -> None:
         for event in events:
-            if event.kind == EventKind.BTP_DETECTED and event.cell not in self.btps:
-                self.btps[event.cell] = {
-                    "by": event.agent,
-                    "at": self.arrivals,
-                    "cov_by": None,
-                    "cov_at": None,
-                }
-            elif event.kind == EventKind.BTP_COVERED and event.cell in self.btps:
-                self.btps[event.cell].update(cov_by=event.agent, cov_at=self.arrivals)
-            elif event.kind == EventKind.COVERAGE_COMPLETE and self.coverage_arrivals is None:
+            self.btps.note(event, self.arrivals)
+            if event.kind == EventKind.COVERAGE_COMPLETE and self.coverage_arrivals is None:
                 self.coverage_arrivals = self.arrivals
                 self.coverage_s = t_s
                 for log in self.agents.values():
@@ -126,10 +118,7 @@ class MissionRecord:
             belief=coordinator.belief.state_grid(),
             covered=covered,
             agents=agents,
-            btps=tuple(
-                BtpRecord(cell, int(b["by"] or 0), int(b["at"] or 0), b["cov_by"], b["cov_at"])
-                for cell, b in self.btps.items()
-            ),
+            btps=self.btps.records(),
             covered_per_iteration=tuple(self.covered_series),
             iterations=iterations,
             free_cells=self.free_cells,
