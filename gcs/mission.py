@@ -83,6 +83,7 @@ class VehicleDefaults:
     energy_per_m_pct: float = 0.5
     battery_capacity_mah: float = 5000.0
     speed_m_s: float = 2.0
+    charge_rate_pct_s: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -94,6 +95,7 @@ class VehicleSpec:
     energy_per_m_pct: float
     battery_capacity_mah: float
     speed_m_s: float
+    charge_rate_pct_s: float
 
 
 @dataclass(frozen=True)
@@ -151,7 +153,14 @@ def default_connection(sysid: int) -> str:
 _TOP_KEYS = ("name", "map", "charger", "cell_size_m", "origin", "fleet", "planner")
 _ORIGIN_KEYS = ("lat_deg", "lon_deg", "alt_m")
 _FLEET_KEYS = ("count", "defaults", "vehicles")
-_DEFAULT_KEYS = ("type", "sensing", "energy_per_m_pct", "battery_capacity_mah", "speed_m_s")
+_DEFAULT_KEYS = (
+    "type",
+    "sensing",
+    "energy_per_m_pct",
+    "battery_capacity_mah",
+    "speed_m_s",
+    "charge_rate_pct_s",
+)
 _VEHICLE_KEYS = ("sysid", "connection", *_DEFAULT_KEYS)
 _PLANNER_KEYS = (
     "reserve_pct",
@@ -298,6 +307,9 @@ class _Loader:
                 data, "battery_capacity_mah", where, base.battery_capacity_mah, above=0.0
             ),
             "speed_m_s": self.number(data, "speed_m_s", where, base.speed_m_s, above=0.0),
+            "charge_rate_pct_s": self.number(
+                data, "charge_rate_pct_s", where, base.charge_rate_pct_s, above=0.0
+            ),
         }
 
     def fleet(self, value: Any) -> tuple[tuple[VehicleSpec, ...], VehicleDefaults]:

@@ -1,8 +1,11 @@
 """Offline simulation: the planner against the ground-truth world, in lockstep iterations.
 
 An iteration gives every agent one decision (at most one move each), as the
-paper counts them. The planner only ever sees what the world's sensing
-answers at the cells its agents stand on; the truth stays in ``sitl_mock``.
+paper counts them. With ``SimOptions.timed`` an iteration is instead a tick of
+mission time: each vehicle decides once per cell at its own speed and charges
+at its own rate, as the live fleet does, so the plan predicts a live run.
+The planner only ever sees what the world's sensing answers at the cells its
+agents stand on; the truth stays in ``sitl_mock``.
 """
 
 from __future__ import annotations
@@ -46,6 +49,29 @@ class SimOptions:
     max_iterations: int | None = None
     #: Planner settings to use instead of the ones the mission gives.
     settings: PlannerSettings | None = None
+    #: Model each vehicle's speed and charge rate in mission seconds (see the module doc).
+    timed: bool = False
+
+
+@dataclass(frozen=True)
+class Pace:
+    """How often the agents act: every ``step[i]`` mission seconds, in ticks of ``tick_s``."""
+
+    tick_s: float
+    step: dict[int, float]
+    bodies: list[Body]
+
+    @classmethod
+    def of(cls, mission: Mission, timed: bool) -> Pace:
+        if not timed:
+            bodies = [Body(v.sysid, v.energy_per_m_pct) for v in mission.fleet]
+            return cls(1.0, {v.sysid: 1.0 for v in mission.fleet}, bodies)
+        step = {v.sysid: mission.cell_size_m / v.speed_m_s for v in mission.fleet}
+        tick = min(step.values())
+        bodies = [
+            Body(v.sysid, v.energy_per_m_pct, v.charge_rate_pct_s * tick) for v in mission.fleet
+        ]
+        return cls(tick, step, bodies)
 
 
 def planner_settings(mission: Mission, seed: int = 0, **strategy: object) -> PlannerSettings:
@@ -87,9 +113,10 @@ def simulate(
     if grid.pads[:1] != (mission.charger,):
         grid = replace(grid, pads=(mission.charger,))
     ids = [v.sysid for v in mission.fleet]
+    pace = Pace.of(mission, options.timed)
     world = LockstepWorld(
         grid,
-        [Body(v.sysid, v.energy_per_m_pct) for v in mission.fleet],
+        pace.bodies,
         cell_size_m=mission.cell_size_m,
         charge_pct_per_step=mission.planner.charge_pct_per_step,
         charging_slots=mission.planner.charging_slots,
@@ -97,6 +124,9 @@ def simulate(
     reachable = grid.reachable()
     free_cells = int(reachable.sum())
     limit = options.max_iterations or mission.planner.max_iterations or 40 * free_cells + 1000
+    if options.timed and not options.max_iterations:
+        limit = round(limit * max(pace.step.values()) / pace.tick_s)
+    ready_at = dict.fromkeys(ids, 0.0)
 
     t0 = time.perf_counter()
     planner_s = 0.0
@@ -150,8 +180,9 @@ def simulate(
         log.coverage(0, coordinator.belief.state_grid(), coordinator.belief.covered_grid())
     while iteration < limit and not coordinator.finished:
         iteration += 1
+        now = (iteration - 1) * pace.tick_s
         for i in ids:
-            if i in world.dead:
+            if i in world.dead or ready_at[i] > now + 1e-9:
                 continue
             tick = time.perf_counter()
             homing = coordinator.mode(i) == AgentMode.HOMING or coordinator.coverage_complete
@@ -170,8 +201,11 @@ def simulate(
                 else:
                     coordinator.observe(i, action.to, world.sense(action.to), world.battery[i])
                 planner_s += time.perf_counter() - tick
-            elif action.kind == ActionKind.CHARGE:
+            if action.kind == ActionKind.CHARGE:
                 world.request_charge(i)
+                ready_at[i] = now + pace.tick_s
+            else:
+                ready_at[i] = max(ready_at[i] + pace.step[i], now + pace.tick_s)
         world.end_iteration()
         tick = time.perf_counter()
         for i in ids:
@@ -228,7 +262,18 @@ def simulate(
         safety_net_fires=coordinator.safety_net_fires,
         wall_s=time.perf_counter() - t0,
         planner_s=planner_s,
-        extra={"btps_detected": coordinator.btps_detected, "total_iterations": iteration},
+        extra={
+            "btps_detected": coordinator.btps_detected,
+            "total_iterations": iteration,
+            **(
+                {
+                    "mission_s": round(iteration * pace.tick_s, 3),
+                    "coverage_s": round((coverage_iterations or iteration) * pace.tick_s, 3),
+                }
+                if options.timed
+                else {}
+            ),
+        },
     )
     if log is not None:
         log.coverage(iteration, result.belief, covered)

@@ -56,6 +56,7 @@ def mock_fleet_configs(
                 battery=BatterySettings(
                     capacity_mah=spec.battery_capacity_mah,
                     energy_per_m_pct=spec.energy_per_m_pct,
+                    charge_rate_pct_s=spec.charge_rate_pct_s,
                 ),
             )
         )

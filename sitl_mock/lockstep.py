@@ -21,10 +21,12 @@ class WorldError(RuntimeError):
 
 @dataclass(frozen=True)
 class Body:
-    """An agent's physics: battery percent used per metre driven."""
+    """An agent's physics: battery percent used per metre driven, and gained per
+    iteration on the pad (None: the world's rate)."""
 
     id: int
     energy_per_m_pct: float
+    charge_pct_per_step: float | None = None
 
 
 class LockstepWorld:
@@ -87,10 +89,11 @@ class LockstepWorld:
         for agent in self._queue[:slots]:
             if agent not in self._requested:
                 continue
-            if self.charge_pct_per_step is None:
+            rate = self._bodies[agent].charge_pct_per_step or self.charge_pct_per_step
+            if rate is None:
                 self.battery[agent] = 100.0
             else:
-                self.battery[agent] = min(100.0, self.battery[agent] + self.charge_pct_per_step)
+                self.battery[agent] = min(100.0, self.battery[agent] + rate)
         for agent in [
             a for a in self._queue if self.battery[a] >= 100.0 or a not in self._requested
         ]:

@@ -98,6 +98,7 @@ def make_mission(
             energy_per_m_pct=energy_per_m_pct,
             battery_capacity_mah=5000.0,
             speed_m_s=2.0,
+            charge_rate_pct_s=1.0,
         )
         for i in range(agents)
     )

@@ -109,7 +109,7 @@ fleet:
   defaults: {type: copter, sensing: map, energy_per_m_pct: 0.2, speed_m_s: 5}
   vehicles:
     - {sysid: 2, connection: "udpout:10.0.0.2:14550"}
-    - {type: rover, speed_m_s: 1.5}
+    - {type: rover, speed_m_s: 1.5, charge_rate_pct_s: 0.5}
 planner:
   reserve_pct: 25
   charge_pct_per_step: 2.5
@@ -125,11 +125,11 @@ def test_every_key_is_read(tmp_path: Path) -> None:
     assert mission.cell_size_m == 2.5
     assert mission.origin == Origin(-33.5, 151.25, 10.0)
     assert mission.planner == PlannerSpec(25.0, 2.5, 1, PathPlanner.PRM, 5000)
-    assert [(v.sysid, v.type, v.speed_m_s) for v in mission.fleet] == [
-        (2, VehicleType.COPTER, 5.0),
-        (1, VehicleType.ROVER, 1.5),
-        (3, VehicleType.COPTER, 5.0),
-        (4, VehicleType.COPTER, 5.0),
+    assert [(v.sysid, v.type, v.speed_m_s, v.charge_rate_pct_s) for v in mission.fleet] == [
+        (2, VehicleType.COPTER, 5.0, 1.0),
+        (1, VehicleType.ROVER, 1.5, 0.5),
+        (3, VehicleType.COPTER, 5.0, 1.0),
+        (4, VehicleType.COPTER, 5.0, 1.0),
     ]
     assert [v.connection for v in mission.fleet] == [
         "udpout:10.0.0.2:14550",
@@ -246,6 +246,11 @@ BAD: list[tuple[str, str | None, str]] = [
         "map: m.txt\nfleet: {vehicles: [{speed_m_s: 0}]}\n",
         None,
         "fleet.vehicles[0].speed_m_s: must be a number > 0, got 0",
+    ),
+    (
+        "map: m.txt\nfleet: {defaults: {charge_rate_pct_s: -1}}\n",
+        None,
+        "fleet.defaults.charge_rate_pct_s: must be a number > 0, got -1",
     ),
     ("map: m.txt\ncell_size_m: 0\n", None, "cell_size_m: must be a number > 0, got 0"),
     ("map: m.txt\ncell_size_m: '1'\n", None, "cell_size_m: must be a number > 0, got '1'"),

@@ -44,6 +44,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="write report.json, PNG figures and the MCAP log (mission.mcap) to this folder",
     )
     p.add_argument("--seed", type=int, default=0, help="seed for the planner's random choices")
+    p.add_argument(
+        "--timed",
+        action="store_true",
+        help="predict a live run: each vehicle moves at its own speed_m_s and charges at its "
+        "own charge_rate_pct_s, in ticks of mission time, instead of lockstep iterations",
+    )
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
     p.set_defaults(func=run)
 
@@ -113,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
         errors.print(f"[yellow]warning:[/] {reach.message()}")
     settings = planner_settings(mission, args.seed, **strategy_overrides(args))
     log = open_log(mission, args.out) if args.out else None
-    options = SimOptions(seed=args.seed, settings=settings)
+    options = SimOptions(seed=args.seed, settings=settings, timed=args.timed)
     result = simulate_with_progress(mission, options, errors, log)
     print_summary(result, console)
     if args.out:
