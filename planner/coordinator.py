@@ -27,7 +27,7 @@ from planner import btp
 from planner.belief import UNREACHED, MapBelief
 from planner.fast_search import TargetSearch
 from planner.grid import MOVES, Cell, CellState, Direction, manhattan
-from planner.paths import path_to_charger, shortest_path
+from planner.paths import path_to_charger
 from planner.prm import Roadmap
 from planner.settings import (
     AgentSpec,
@@ -170,6 +170,7 @@ class Coordinator:
         )
         self.btps_detected = 0
         self.safety_net_fires = 0
+        self._best_cost: float | None = None  # cache of _best_move_cost()
 
     # -- queries ------------------------------------------------------------
 
@@ -260,11 +261,13 @@ class Coordinator:
             raise ValueError("energy per metre must not be negative")
         a = self._agents[agent]
         a.spec = replace(a.spec, energy_per_m_pct=pct_per_m)
+        self._best_cost = None
 
     def mark_lost(self, agent: int) -> None:
         """The agent is gone: its BTPs go back to the global stack, its claims are freed."""
         a = self._agents[agent]
         a.mode = AgentMode.LOST
+        self._best_cost = None
         a.path.clear()
         self.stacks.release(a.id)
         self._drop_claim(a)
@@ -380,8 +383,11 @@ class Coordinator:
                 if v + s != a.index and state[v + s] != _OBSTACLE and not covered[v + s]
             )
 
-        if not self.settings.bm_spread:
-            return min(candidates, key=openings)
+        counts = [openings(v) for v in candidates]
+        tightest = min(counts)
+        tied = [v for v, n in zip(candidates, counts, strict=True) if n == tightest]
+        if len(tied) == 1 or not self.settings.bm_spread:
+            return tied[0]
         others = self._working_cells(a)
         cell_of = self.belief.cell
 
@@ -389,7 +395,7 @@ class Coordinator:
             r, c = cell_of(v)
             return -min((abs(r - o[0]) + abs(c - o[1]) for o in others), default=0)
 
-        return min(candidates, key=lambda v: (openings(v), crowding(v)))
+        return min(tied, key=crowding)
 
     # -- blocked: choose a BTP (Algorithm 3 with exact search) ------------------
 
@@ -502,10 +508,12 @@ class Coordinator:
 
     def _best_move_cost(self) -> float:
         """The cheapest move of any agent still in the mission (inf when none is)."""
-        return min(
-            (self._move_cost(b) for b in self._agents.values() if b.mode != AgentMode.LOST),
-            default=math.inf,
-        )
+        if self._best_cost is None:
+            self._best_cost = min(
+                (self._move_cost(b) for b in self._agents.values() if b.mode != AgentMode.LOST),
+                default=math.inf,
+            )
+        return self._best_cost
 
     @property
     def _range_budget_pct(self) -> float:
@@ -560,11 +568,11 @@ class Coordinator:
         # The way home is always the exact shortest path: the staying alive
         # policy budgets the return on it, so a longer roadmap path could eat
         # into the reserve.
-        if goal == self.belief.charger_index:
-            return path_to_charger(self.belief, a.index, blocked)
-        if self._roadmap is not None and not blocked:
+        if goal == self.belief.charger_index and not blocked:
+            return path_to_charger(self.belief, a.index)
+        if self._roadmap is not None and not blocked and goal != self.belief.charger_index:
             return self._roadmap.path(self.belief, a.index, goal)
-        return shortest_path(self.belief, a.index, goal, blocked)
+        return self._search.path(a.index, goal, blocked)
 
     def _follow(self, a: _Agent, goal: int) -> Action:
         if not a.path or abs(a.path[0] - a.index) not in (1, self.belief.stride):

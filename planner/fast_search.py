@@ -96,6 +96,41 @@ def _search(
     return -1, -1
 
 
+@njit(cache=True, nogil=True)
+def _path_search(
+    state: np.ndarray,
+    blocked: np.ndarray,
+    start: int,
+    goal: int,
+    stride: int,
+    seen: np.ndarray,
+    stamp: int,
+    parent: np.ndarray,
+    queue: np.ndarray,
+) -> bool:
+    """Breadth-first from ``start`` until ``goal`` is reached (N, S, E, W order, as
+    ``paths.nearest``); ``parent`` then holds the path. False if unreachable."""
+    steps = (-stride, stride, 1, -1)
+    seen[start] = stamp
+    queue[0] = start
+    head = 0
+    tail = 1
+    while head < tail:
+        u = queue[head]
+        head += 1
+        for k in range(4):
+            v = u + steps[k]
+            if state[v] != _FREE or seen[v] == stamp or blocked[v] != 0:
+                continue
+            seen[v] = stamp
+            parent[v] = u
+            if v == goal:
+                return True
+            queue[tail] = v
+            tail += 1
+    return False
+
+
 class TargetSearch:
     """Scratch arrays for ``_search``, reused across calls on one belief."""
 
@@ -109,7 +144,40 @@ class TargetSearch:
         self.state = np.frombuffer(belief.state, dtype=np.uint8)
         self.candidate = np.frombuffer(belief.uncovered_mask, dtype=np.uint8)
         self._pool_mask = np.zeros(size, dtype=np.uint8)
+        self._blocked = np.zeros(size, dtype=np.uint8)
         self.home = np.frombuffer(belief.charger_dist, dtype=np.int32)
+
+    def path(self, start: int, goal: int, blocked: Iterable[int] = ()) -> list[int] | None:
+        """The shortest path from ``start`` to ``goal`` over known free cells, not
+        entering ``blocked`` cells: the start excluded, the goal included."""
+        if start == goal:
+            return []
+        self.stamp += 1
+        marked = list(blocked)
+        self._blocked[marked] = 1
+        try:
+            found = _path_search(
+                self.state,
+                self._blocked,
+                start,
+                goal,
+                self.belief.stride,
+                self.seen,
+                self.stamp,
+                self.parent,
+                self.queue,
+            )
+        finally:
+            self._blocked[marked] = 0
+        return self._unwind(start, goal) if found else None
+
+    def _unwind(self, start: int, goal: int) -> list[int]:
+        path = [goal]
+        parent = self.parent
+        while parent[path[-1]] != start:
+            path.append(int(parent[path[-1]]))
+        path.reverse()
+        return path
 
     def run(
         self,
@@ -164,19 +232,16 @@ class TargetSearch:
                 mask[pool] = 0
         if rank < 0:
             return None
-        path = [cell]
-        parent = self.parent
-        while parent[path[-1]] != start:
-            path.append(int(parent[path[-1]]))
-        path.reverse()
-        return rank, cell, path
+        return rank, cell, self._unwind(start, cell)
 
 
 def _warm_up() -> None:
     """Compile (or load from numba's cache) at import, not in the first decision."""
     belief = MapBelief((1, 2), (0, 0))
     belief.mark_free(belief.index((0, 1)))
-    TargetSearch(belief).run(belief.index((0, 0)), 100.0, 0.0, 0.0, 0.0, 100.0, [], 0, [])
+    search = TargetSearch(belief)
+    search.run(belief.index((0, 0)), 100.0, 0.0, 0.0, 0.0, 100.0, [], 0, [])
+    search.path(belief.index((0, 0)), belief.index((0, 1)))
 
 
 _warm_up()
