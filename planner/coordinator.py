@@ -323,12 +323,12 @@ class Coordinator:
             return self._follow(a, self.belief.charger_index)
         if a.mode == AgentMode.TRANSIT:
             assert a.goal is not None
+            # Re-deciding needs consistent shortest paths: with the roadmap a
+            # fresh path from one step on can be longer than the rest of the
+            # old one, and the agent would turn back before every arrival.
             if (
                 a.index == a.goal
                 or a.goal not in self.belief.uncovered
-                # Re-deciding needs consistent shortest paths: with the roadmap a
-                # fresh path from one step on can be longer than the rest of the
-                # old one, and the agent would turn back before every arrival.
                 or (self.settings.replan_transit and self._roadmap is None)
             ):
                 a.was_heading_for = a.goal

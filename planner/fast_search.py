@@ -22,6 +22,42 @@ _FREE = int(CellState.FREE)
 
 
 @njit(cache=True, nogil=True)
+def _uncontested_horizon(
+    candidate: np.ndarray, start: int, stride: int, others_r: np.ndarray, others_c: np.ndarray
+) -> int:
+    """The largest distance at which a candidate could still be uncontested.
+
+    A candidate ``v`` at path distance ``d`` is uncontested when every other
+    agent is at least ``d`` away (Manhattan); as ``d`` is at least the
+    Manhattan distance from the start, only candidates that no other agent is
+    nearer to (in Manhattan terms) can be, and none farther than its distance
+    to the nearest other agent. One pass over the candidate mask, far cheaper
+    than a search of the whole map.
+    """
+    if others_r.size == 0:
+        return UNREACHED
+    r0 = start // stride
+    c0 = start % stride
+    horizon = -1
+    for v in range(candidate.size):
+        if candidate[v] == 0:
+            continue
+        r = v // stride
+        c = v % stride
+        mine = abs(r - r0) + abs(c - c0)
+        nearest_other = UNREACHED
+        for j in range(others_r.size):
+            m = abs(r - 1 - others_r[j]) + abs(c - 1 - others_c[j])
+            if m < nearest_other:
+                nearest_other = m
+                if m < mine:
+                    break
+        if nearest_other >= mine and nearest_other > horizon:
+            horizon = nearest_other
+    return horizon
+
+
+@njit(cache=True, nogil=True)
 def _search(
     state: np.ndarray,
     candidate: np.ndarray,
@@ -45,6 +81,10 @@ def _search(
     steps = (-stride, stride, 1, -1)
     best1 = -1
     best2 = -1
+    # Beyond ``horizon`` no target can be uncontested (rank 0): once the best
+    # lesser target is known, stop there instead of searching the whole map.
+    # Worked out when first needed (most searches end at an uncontested target).
+    horizon = UNREACHED
     seen[start] = stamp
     queue[0] = start
     head = 0
@@ -57,6 +97,8 @@ def _search(
         if head == level_end:
             level_end = tail
             distance += 1
+            if distance + 1 > horizon and (best1 >= 0 or (hold == 0 and best2 >= 0)):
+                break
         u = queue[head]
         head += 1
         d = distance + 1
@@ -87,8 +129,15 @@ def _search(
             if hold > 0 and nearest_other >= min(d, hold + 1):
                 if best1 < 0:
                     best1 = v
+                    horizon = _uncontested_horizon(candidate, start, stride, others_r, others_c)
+                    if d > horizon:
+                        return 1, v
             elif best2 < 0:
                 best2 = v
+                if hold == 0:
+                    horizon = _uncontested_horizon(candidate, start, stride, others_r, others_c)
+                    if d > horizon:
+                        return 2, v
     if best1 >= 0:
         return 1, best1
     if best2 >= 0:

@@ -11,6 +11,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from planner.grid import NEIGHBOURS, Cell, CellState, Direction, manhattan
 from sitl_mock.gridmap import GridMap
 
@@ -48,13 +50,16 @@ class LockstepWorld:
         self.dead: set[int] = set()
         self._queue: list[int] = []  # charging requests, first come first served
         self._requested: set[int] = set()
+        # Free cells as bytes with an obstacle border: sensing is 8 look-ups.
+        self._stride = grid.shape[1] + 2
+        self._free = np.pad(~grid.obstacle, 1, constant_values=False).tobytes()
+        self._offsets = [(d, d.value[0] * self._stride + d.value[1]) for d in NEIGHBOURS]
 
     def sense(self, cell: Cell) -> dict[Direction, CellState]:
         """The 8 neighbours of ``cell``: free or obstacle (the paper's eq. 2)."""
-        return {
-            d: CellState.FREE if self.grid.is_free(d.of(cell)) else CellState.OBSTACLE
-            for d in NEIGHBOURS
-        }
+        i = (cell[0] + 1) * self._stride + cell[1] + 1
+        free = self._free
+        return {d: CellState.FREE if free[i + k] else CellState.OBSTACLE for d, k in self._offsets}
 
     def move(self, agent: int, to: Cell) -> None:
         if agent in self.dead:
