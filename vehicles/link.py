@@ -106,6 +106,8 @@ class VehicleLink:
         self._target_system = target_system
         self._target_component = target_component
         self.telemetry = TelemetryCache(profile=profile)
+        #: Every MAVLink message read from the transport (any system).
+        self.messages_in = 0
         self._fixed_profile = profile
         self.router = MessageRouter()
         self.streams = TopicStreams()
@@ -238,6 +240,7 @@ class VehicleLink:
 
     async def _read(self) -> None:
         async for msg in self.transport:
+            self.messages_in += 1
             if self._target_system is None:
                 if not _is_vehicle_heartbeat(msg):
                     continue

@@ -278,6 +278,7 @@ class Agent:
             self.view.phase = Phase.TAKING_OFF
         await self.pilot.underway()
         self.view.phase = Phase.MOVING
+        self.planner.commanding(self.id)
         pos = await self.pilot.goto(to)
         await self._arrive(to, pos)
 

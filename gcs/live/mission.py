@@ -309,6 +309,44 @@ async def _any_range(link: VehicleLink) -> None:
         await asyncio.gather(*waits, return_exceptions=True)
 
 
+#: Real seconds between two looks at how late the event loop runs.
+LOOP_PROBE_S = 0.05
+
+
+async def _probe_loop_lag(samples: list[float]) -> None:
+    """Sample how late the event loop wakes a timer: the ground station falls
+    behind its vehicles when this grows."""
+    loop = asyncio.get_running_loop()
+    while True:
+        due = loop.time() + LOOP_PROBE_S
+        await asyncio.sleep(LOOP_PROBE_S)
+        samples.append(max(0.0, loop.time() - due))
+
+
+def _percentile_ms(values_s: list[float], q: float) -> float:
+    if not values_s:
+        return 0.0
+    ordered = sorted(values_s)
+    return round(1000.0 * ordered[min(len(ordered) - 1, int(q * len(ordered)))], 3)
+
+
+def load_figures(
+    latency_s: list[float], messages: int, cpu_s: float, wall_s: float, loop_lag_s: list[float]
+) -> dict[str, float]:
+    """How hard the ground station worked: decision latency percentiles (ms), event
+    loop lateness, messages read per second, and CPU seconds (this process, the mock
+    fleet included with --sim) per wall second."""
+    return {
+        "decisions_timed": len(latency_s),
+        "decision_latency_ms_p50": _percentile_ms(latency_s, 0.50),
+        "decision_latency_ms_p99": _percentile_ms(latency_s, 0.99),
+        "decision_latency_ms_max": _percentile_ms(latency_s, 1.0),
+        "loop_lag_ms_p99": _percentile_ms(loop_lag_s, 0.99),
+        "messages_in_per_s": round(messages / wall_s, 1) if wall_s > 0 else 0.0,
+        "cpu_s_per_s": round(cpu_s / wall_s, 3) if wall_s > 0 else 0.0,
+    }
+
+
 async def _fly(
     mission: Mission,
     options: LiveOptions,
@@ -321,6 +359,10 @@ async def _fly(
     t0: float,
 ) -> RunResult:
     wall0 = time.perf_counter()
+    cpu0 = time.process_time()
+    messages0 = sum(link.messages_in for link in links.values())
+    loop_lag_s: list[float] = []
+    probe = asyncio.ensure_future(_probe_loop_lag(loop_lag_s))
     estimators = {
         v.sysid: EnergyEstimator(model_prior(VehicleKind(v.type.value)), options.energy)
         for v in mission.fleet
@@ -396,6 +438,8 @@ async def _fly(
         for agent, outcome in zip(going, outcomes, strict=True):
             run.views[agent.id].phase = Phase.ABORTED
             notify(f"vehicle {agent.id}: {outcome}", Level.INFO, agent.id)
+    probe.cancel()
+    await asyncio.gather(probe, return_exceptions=True)
     planner.write_coverage()
     result = record.result(
         coordinator,
@@ -407,6 +451,13 @@ async def _fly(
             "speedup": options.speedup,
             "moves_held_back": planner.held_back,
             "waits": planner.waits,
+            **load_figures(
+                planner.decision_latency_s,
+                sum(link.messages_in for link in links.values()) - messages0,
+                time.process_time() - cpu0,
+                time.perf_counter() - wall0,
+                loop_lag_s,
+            ),
         },
     )
     mission_log.result(planner.t_s, result)

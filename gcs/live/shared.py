@@ -133,6 +133,11 @@ class SharedPlanner:
         self.held_back = 0
         #: WAIT decisions (the planner's and held-back moves).
         self.waits = 0
+        #: Real seconds from a vehicle's arrival and sensing (telemetry in) to the
+        #: guided target of the move decided then (command out): the ground
+        #: station's own delay (arrivals followed by a wait are not counted).
+        self.decision_latency_s: list[float] = []
+        self._observed_at: dict[int, float] = {}
 
     @property
     def t_s(self) -> float:
@@ -150,6 +155,7 @@ class SharedPlanner:
         lat_lon_heading: tuple[float, float, float | None] | None = None,
     ) -> None:
         tick = time.perf_counter()
+        self._observed_at[agent] = tick
         before = self.coordinator.mode(agent)
         self._at[agent] = cell
         self._heading_for.pop(agent, None)
@@ -162,6 +168,12 @@ class SharedPlanner:
         )
         self._after(agent, before, force_coverage=False)
         self.changed.notify()
+
+    def commanding(self, agent: int) -> None:
+        """The next target is about to be sent to ``agent``: time the decision."""
+        observed = self._observed_at.pop(agent, None)
+        if observed is not None:
+            self.decision_latency_s.append(time.perf_counter() - observed)
 
     def decide(self, agent: int) -> Action:
         tick = time.perf_counter()
@@ -183,10 +195,13 @@ class SharedPlanner:
                 coordinator.observe(agent, here, {}, battery)
                 self._after(agent, before, force_coverage=False)
                 self.waits += 1
+                self._observed_at.pop(agent, None)
                 return WAIT
             self._heading_for[agent] = action.to
             self.record.agents[agent].homing = homing
         self._after(agent, before, force_coverage=False)
+        if action.kind != ActionKind.MOVE:
+            self._observed_at.pop(agent, None)  # a wait is not a delay of ours
         if action.kind == ActionKind.WAIT:
             self.waits += 1
         if coordinator.mode(agent) != before:
