@@ -260,8 +260,9 @@ class Coordinator:
         if pct_per_m < 0:
             raise ValueError("energy per metre must not be negative")
         a = self._agents[agent]
-        a.spec = replace(a.spec, energy_per_m_pct=pct_per_m)
-        self._best_cost = None
+        if a.spec.energy_per_m_pct != pct_per_m:
+            a.spec = replace(a.spec, energy_per_m_pct=pct_per_m)
+            self._best_cost = None
 
     def mark_lost(self, agent: int) -> None:
         """The agent is gone: its BTPs go back to the global stack, its claims are freed."""

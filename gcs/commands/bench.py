@@ -19,6 +19,7 @@ from pathlib import Path
 from rich.table import Table
 
 from gcs.bench_mavlink import register_mavlink
+from gcs.bench_perf import register_perf
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.mission import Mission, MissionError, load_mission
@@ -70,7 +71,7 @@ STRATEGIES = (
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser(
         "bench",
-        help="benchmarks: reproduce the paper's tables",
+        help="benchmarks: the paper's tables, MAVLink transfer, scaling",
         description="Benchmarks that measure and print figures.",
     )
     which = p.add_subparsers(dest="bench", metavar="BENCH", required=True)
@@ -91,6 +92,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     paper.add_argument("--json", type=Path, help="also write the figures as JSON to this file")
     paper.set_defaults(func=run_paper)
     register_mavlink(which)
+    register_perf(which)
 
 
 def _load(path: Path) -> Mission:

@@ -1,0 +1,402 @@
+"""``gcs bench perf``: how the planner and the live ground station scale.
+
+1. Offline planner: generated maps (``rooms``: rooms and corridors; ``open``: a field
+   with scattered obstacles) of every ``--sizes`` side with every ``--agents`` count.
+   The battery is set so that a round trip to the farthest cell costs two thirds of
+   the usable charge: the staying alive policy is at work at every size. Each case
+   runs in a child process of its own (its peak memory is the child's), and is
+   stopped after ``--case-limit`` seconds.
+2. Live ground station: one ``gcs run --sim`` in this process (the mock fleet in the
+   same event loop) with 1, 16 and 64 vehicles on an open map sized to the fleet:
+   decision latency (arrival and sensing in, the next guided target out), event-loop
+   lateness, messages read per second, CPU per vehicle. A run falls behind when its
+   event loop is more than ``LOOP_BEHIND_MS`` late at the 99th percentile.
+
+Figures, never pass/fail on time: the machine is shared and noisy.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing
+import platform
+import resource
+import socket
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+from multiprocessing.connection import Connection
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+from rich.table import Table
+
+from gcs.console import output_console
+from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
+from gcs.mission import Mission, Origin, PlannerSpec, Sensing, VehicleSpec, VehicleType
+from gcs.preflight import charger_distances
+from gcs.simulate import simulate
+from sitl_mock import mapgen
+from sitl_mock.gridmap import GridMap
+from sitl_mock.maps import to_ascii
+
+GENERATORS = {"rooms": mapgen.rooms, "open": mapgen.open_field}
+MAP_SEED = 1
+RESERVE_PCT = 20.0
+#: A round trip to the farthest cell costs this share of the usable charge.
+FARTHEST_TRIP_SHARE = 2 / 3
+#: Event-loop lateness (99th percentile) above which a live run fell behind.
+LOOP_BEHIND_MS = 100.0
+
+
+def register_perf(which: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = which.add_parser(
+        "perf",
+        help="planner scaling (map size x agents) and live ground-station load (vehicles)",
+        description=__doc__.split("\n\n", 1)[1] if __doc__ else None,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--sizes", default="100,300,1000", help="map sides in cells (default 100,300,1000)"
+    )
+    p.add_argument("--kinds", default="rooms,open", help="map kinds (default rooms,open)")
+    p.add_argument("--agents", default="1,10,50", help="fleet sizes (default 1,10,50)")
+    p.add_argument(
+        "--case-limit",
+        type=float,
+        default=600.0,
+        metavar="S",
+        help="stop a planner case after S wall seconds (default 600)",
+    )
+    p.add_argument("--vehicles", default="1,16,64", help="live fleet sizes (default 1,16,64)")
+    p.add_argument(
+        "--live-speedup",
+        type=float,
+        default=2.0,
+        metavar="X",
+        help="the mock fleet's speed-up in the live runs (default 2)",
+    )
+    p.add_argument("--skip-planner", action="store_true", help="only the live runs")
+    p.add_argument("--skip-live", action="store_true", help="only the planner cases")
+    p.add_argument("--json", type=Path, help="also write the figures to this JSON file")
+    p.set_defaults(func=run_perf)
+
+
+def _numbers(text: str, what: str, kind: type = int) -> list[Any]:
+    try:
+        values = [kind(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise UsageError(f"--{what}: expected comma-separated numbers, got {text!r}") from None
+    if not values or any(v <= 0 for v in values):
+        raise UsageError(f"--{what}: expected positive numbers, got {text!r}")
+    return values
+
+
+# -- the offline planner ---------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PlannerCase:
+    kind: str
+    size: int
+    agents: int
+
+
+def case_mission(grid: GridMap, agents: int, name: str, connections: list[str] | None = None):
+    """A mission of ``agents`` rovers on ``grid``, the battery set as the module says."""
+    probe = _mission(grid, 1, 0.0, name, None)
+    far = int(charger_distances(probe).max())
+    energy = (100.0 - RESERVE_PCT) * FARTHEST_TRIP_SHARE / (2 * max(far, 1))
+    return _mission(grid, agents, energy, name, connections)
+
+
+def _mission(
+    grid: GridMap, agents: int, energy: float, name: str, connections: list[str] | None
+) -> Mission:
+    fleet = tuple(
+        VehicleSpec(
+            sysid=i + 1,
+            type=VehicleType.COPTER if i % 4 == 3 else VehicleType.ROVER,
+            sensing=Sensing.RANGE,
+            connection=connections[i] if connections else f"udpin:127.0.0.1:{14550 + 10 * i}",
+            energy_per_m_pct=energy,
+            battery_capacity_mah=5000.0,
+            speed_m_s=2.0,
+            charge_rate_pct_s=2.0,
+        )
+        for i in range(agents)
+    )
+    return Mission(
+        name=name,
+        source=Path(f"{name}.yaml"),
+        map=grid,
+        charger=grid.charger,
+        cell_size_m=1.0,
+        origin=Origin(),
+        fleet=fleet,
+        planner=PlannerSpec(reserve_pct=RESERVE_PCT),
+    )
+
+
+def _run_case(case: PlannerCase, out: Connection) -> None:
+    """In a child process: generate, simulate, send back the figures."""
+    t0 = time.perf_counter()
+    grid = GENERATORS[case.kind](case.size, case.size, MAP_SEED)
+    mission = case_mission(grid, case.agents, f"{case.kind}{case.size}")
+    setup_s = time.perf_counter() - t0
+    result = simulate(mission)
+    steps = max(1, result.iterations * case.agents)
+    out.send(
+        {
+            **asdict(case),
+            "free_cells": result.free_cells,
+            "setup_s": round(setup_s, 2),
+            "wall_s": round(result.wall_s, 2),
+            "planner_s": round(result.planner_s, 2),
+            "us_per_agent_step": round(1e6 * result.planner_s / steps, 1),
+            "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss // 1024,
+            "coverage_pct": round(result.coverage_pct, 2),
+            "lost": result.lost_agents,
+            "total_path_m": result.total_path_m,
+            "path_per_free_cell": round(result.total_path_m / max(1, result.free_cells - 1), 3),
+            "iterations": result.iterations,
+            "charges": sum(a.charges for a in result.agents),
+        }
+    )
+    out.close()
+
+
+def run_planner_case(case: PlannerCase, limit_s: float) -> dict[str, Any]:
+    """One case in a fresh child process, stopped after ``limit_s`` wall seconds."""
+    context = multiprocessing.get_context("fork")
+    receive, send = context.Pipe(duplex=False)
+    child = context.Process(target=_run_case, args=(case, send), daemon=True)
+    child.start()
+    send.close()
+    try:
+        if receive.poll(limit_s):
+            try:
+                return receive.recv()
+            except EOFError:
+                pass
+            return {**asdict(case), "error": "the case failed (see stderr)"}
+        return {**asdict(case), "error": f"over {limit_s:g} s"}
+    finally:
+        if child.is_alive():
+            child.terminate()
+        child.join(5)
+        receive.close()
+
+
+def planner_table(rows: list[dict[str, Any]]) -> Table:
+    table = Table(title="offline planner (one process per case)")
+    for name in (
+        "map",
+        "free cells",
+        "agents",
+        "wall s",
+        "planner s",
+        "us/agent-step",
+        "peak MB",
+        "coverage %",
+        "lost",
+        "path m",
+        "path/free",
+        "charges",
+    ):
+        table.add_column(name, justify="left" if name == "map" else "right")
+    for r in rows:
+        label = f"{r['kind']} {r['size']}x{r['size']}"
+        if "error" in r:
+            table.add_row(label, "", str(r["agents"]), r["error"], *[""] * 8)
+            continue
+        table.add_row(
+            label,
+            str(r["free_cells"]),
+            str(r["agents"]),
+            f"{r['wall_s']:.2f}",
+            f"{r['planner_s']:.2f}",
+            f"{r['us_per_agent_step']:.1f}",
+            str(r["peak_mb"]),
+            f"{r['coverage_pct']:.1f}",
+            str(r["lost"]),
+            f"{r['total_path_m']:.0f}",
+            f"{r['path_per_free_cell']:.3f}",
+            str(r["charges"]),
+        )
+    return table
+
+
+# -- the live ground station -----------------------------------------------------------
+
+
+def live_map(vehicles: int) -> GridMap:
+    """An open map with work for every vehicle: about 25 free cells each, 150 at least."""
+    side = max(14, round((25 * vehicles + 150) ** 0.5 * 1.15))
+    return mapgen.open_field(side, side, MAP_SEED)
+
+
+def _free_udp_ports(count: int) -> list[int]:
+    sockets = []
+    try:
+        for _ in range(count):
+            s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            s.bind(("127.0.0.1", 0))
+            sockets.append(s)
+        return [s.getsockname()[1] for s in sockets]
+    finally:
+        for s in sockets:
+            s.close()
+
+
+def write_live_mission(folder: Path, vehicles: int) -> Path:
+    grid = live_map(vehicles)
+    ports = _free_udp_ports(vehicles)
+    mission = case_mission(
+        grid, vehicles, f"live{vehicles}", [f"udpin:127.0.0.1:{p}" for p in ports]
+    )
+    (folder / "map.txt").write_text(to_ascii(grid))
+    lines = [f"name: {mission.name}", "map: map.txt", "fleet:", "  vehicles:"]
+    for v in mission.fleet:
+        lines.append(
+            f"    - {{sysid: {v.sysid}, type: {v.type.value}, connection: '{v.connection}', "
+            f"energy_per_m_pct: {v.energy_per_m_pct:.6f}, speed_m_s: {v.speed_m_s}, "
+            f"charge_rate_pct_s: {v.charge_rate_pct_s}}}"
+        )
+    lines += ["planner:", f"  reserve_pct: {RESERVE_PCT:g}"]
+    path = folder / "mission.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def run_live_case(vehicles: int, speedup: float) -> dict[str, Any]:
+    from gcs.cli import main  # the real CLI; imported here, as gcs.cli registers this bench
+
+    with tempfile.TemporaryDirectory(prefix="gcs-bench-perf-") as tmp:
+        folder = Path(tmp)
+        mission = write_live_mission(folder, vehicles)
+        out = folder / "out"
+        t0 = time.perf_counter()
+        code = main(
+            [
+                "run",
+                str(mission),
+                "--sim",
+                "--quiet",
+                "--speedup",
+                f"{speedup:g}",
+                "--out",
+                str(out),
+                "--time-limit",
+                "3600",
+            ]
+        )
+        wall = time.perf_counter() - t0
+        if not (out / "report.json").exists():
+            return {"vehicles": vehicles, "error": f"gcs run exited {code} without a report"}
+        r = json.loads((out / "report.json").read_text())
+    return {
+        "vehicles": vehicles,
+        "free_cells": r["free_cells"],
+        "exit": code,
+        "wall_s": round(wall, 1),
+        "mission_s": round(r["mission_s"], 1),
+        "coverage_pct": r["coverage_pct"],
+        "lost": r["lost_agents"],
+        "decisions": r["decisions_timed"],
+        "latency_ms_p50": r["decision_latency_ms_p50"],
+        "latency_ms_p99": r["decision_latency_ms_p99"],
+        "loop_lag_ms_p99": r["loop_lag_ms_p99"],
+        "messages_per_s": r["messages_in_per_s"],
+        "cpu_per_vehicle": round(r["cpu_s_per_s"] / vehicles, 4),
+        "fell_behind": r["loop_lag_ms_p99"] > LOOP_BEHIND_MS,
+    }
+
+
+def live_table(rows: list[dict[str, Any]], speedup: float) -> Table:
+    table = Table(title=f"live ground station, gcs run --sim at speed-up {speedup:g}")
+    for name in (
+        "vehicles",
+        "free cells",
+        "coverage %",
+        "lost",
+        "wall s",
+        "decisions",
+        "latency p50 ms",
+        "latency p99 ms",
+        "loop lag p99 ms",
+        "msgs/s",
+        "CPU/vehicle",
+        "fell behind",
+    ):
+        table.add_column(name, justify="right")
+    for r in rows:
+        if "error" in r:
+            table.add_row(str(r["vehicles"]), r["error"], *[""] * 10)
+            continue
+        table.add_row(
+            str(r["vehicles"]),
+            str(r["free_cells"]),
+            f"{r['coverage_pct']:.1f}",
+            str(r["lost"]),
+            f"{r['wall_s']:.1f}",
+            str(r["decisions"]),
+            f"{r['latency_ms_p50']:.2f}",
+            f"{r['latency_ms_p99']:.2f}",
+            f"{r['loop_lag_ms_p99']:.1f}",
+            f"{r['messages_per_s']:.0f}",
+            f"{100 * r['cpu_per_vehicle']:.1f} %",
+            "yes" if r["fell_behind"] else "no",
+        )
+    return table
+
+
+def _complete(row: dict[str, Any]) -> bool:
+    return "error" not in row and row["coverage_pct"] >= 100 and not row["lost"]
+
+
+def run_perf(args: argparse.Namespace) -> int:
+    sizes = _numbers(args.sizes, "sizes")
+    agents = _numbers(args.agents, "agents")
+    vehicles = _numbers(args.vehicles, "vehicles")
+    kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
+    unknown = [k for k in kinds if k not in GENERATORS]
+    if unknown or not kinds:
+        raise UsageError(f"--kinds: choose from {', '.join(GENERATORS)}, got {args.kinds!r}")
+    if args.live_speedup <= 0 or args.case_limit <= 0:
+        raise UsageError("--live-speedup and --case-limit must be positive")
+    console = output_console(quiet=False)
+    progress = Console(stderr=True)
+    figures: dict[str, Any] = {"machine": platform.platform(), "python": platform.python_version()}
+    ok = True
+    if not args.skip_planner:
+        rows = []
+        for kind in kinds:
+            for size in sizes:
+                for n in agents:
+                    progress.print(f"planner: {kind} {size}x{size}, {n} agents ...")
+                    row = run_planner_case(PlannerCase(kind, size, n), args.case_limit)
+                    ok = (
+                        ok and "error" not in row and row["coverage_pct"] >= 100 and not row["lost"]
+                    )
+                    rows.append(row)
+        figures["planner"] = rows
+        console.print(planner_table(rows))
+    if not args.skip_live:
+        rows = []
+        for n in vehicles:
+            progress.print(f"live: {n} vehicles at speed-up {args.live_speedup:g} ...")
+            row = run_live_case(n, args.live_speedup)
+            ok = ok and _complete(row)
+            rows.append(row)
+        figures["live"] = {"speedup": args.live_speedup, "runs": rows}
+        console.print(live_table(rows, args.live_speedup))
+    if args.json:
+        try:
+            args.json.write_text(json.dumps(figures, indent=1) + "\n")
+        except OSError as exc:
+            raise UsageError(f"--json: cannot write {args.json}: {exc.strerror}") from exc
+        console.print(f"wrote {args.json}")
+    return EXIT_OK if ok else EXIT_FAILED
