@@ -22,7 +22,6 @@ import json
 import multiprocessing
 import platform
 import resource
-import socket
 import tempfile
 import time
 from dataclasses import asdict, dataclass
@@ -41,6 +40,7 @@ from gcs.simulate import simulate
 from sitl_mock import mapgen
 from sitl_mock.gridmap import GridMap
 from sitl_mock.maps import to_ascii
+from vehicles.endpoints import free_loopback_udp_ports
 
 GENERATORS = {"rooms": mapgen.rooms, "open": mapgen.open_field}
 MAP_SEED = 1
@@ -238,22 +238,9 @@ def live_map(vehicles: int) -> GridMap:
     return mapgen.open_field(side, side, MAP_SEED)
 
 
-def _free_udp_ports(count: int) -> list[int]:
-    sockets = []
-    try:
-        for _ in range(count):
-            s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            s.bind(("127.0.0.1", 0))
-            sockets.append(s)
-        return [s.getsockname()[1] for s in sockets]
-    finally:
-        for s in sockets:
-            s.close()
-
-
 def write_live_mission(folder: Path, vehicles: int) -> Path:
     grid = live_map(vehicles)
-    ports = _free_udp_ports(vehicles)
+    ports = free_loopback_udp_ports(vehicles)
     mission = case_mission(
         grid, vehicles, f"live{vehicles}", [f"udpin:127.0.0.1:{p}" for p in ports]
     )

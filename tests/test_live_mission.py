@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import asyncio
 import json
-import socket
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +22,7 @@ from gcs.mission import load_mission
 from gcs.sitl_cli import mock_fleet_configs
 from sitl_mock.fleet import MockFleet
 from vehicles.clock import ScaledClock
+from vehicles.endpoints import free_loopback_udp_ports
 
 pytestmark = pytest.mark.timeout(90)
 
@@ -64,25 +64,11 @@ MID = """\
 """
 
 
-def free_ports(count: int) -> list[int]:
-    """Loopback UDP ports nobody uses right now (each vehicle gets its own)."""
-    sockets = []
-    try:
-        for _ in range(count):
-            s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            s.bind(("127.0.0.1", 0))
-            sockets.append(s)
-        return [s.getsockname()[1] for s in sockets]
-    finally:
-        for s in sockets:
-            s.close()
-
-
 def write_mission(
     tmp_path: Path, map_text: str, vehicles: list[dict[str, Any]], energy: float = 0.5
 ) -> Path:
     (tmp_path / "map.txt").write_text(map_text)
-    ports = free_ports(len(vehicles))
+    ports = free_loopback_udp_ports(len(vehicles))
     lines = ["name: test", "map: map.txt", "fleet:", "  vehicles:"]
     for i, (v, port) in enumerate(zip(vehicles, ports, strict=True), 1):
         fields = {

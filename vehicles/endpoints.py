@@ -13,6 +13,7 @@ a simulation never talks to a real vehicle by accident.
 from __future__ import annotations
 
 import ipaddress
+import socket
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -80,3 +81,17 @@ def parse_endpoint(text: str, *, allow_remote: bool = False) -> Endpoint:
     if not allow_remote and not endpoint.is_loopback:
         raise EndpointError(text, f"host {host} is not loopback (allow remote hosts explicitly)")
     return endpoint
+
+
+def free_loopback_udp_ports(count: int) -> list[int]:
+    """``count`` distinct loopback UDP ports that nobody uses right now (for mock fleets)."""
+    sockets = []
+    try:
+        for _ in range(count):
+            s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            s.bind(("127.0.0.1", 0))
+            sockets.append(s)
+        return [s.getsockname()[1] for s in sockets]
+    finally:
+        for s in sockets:
+            s.close()
