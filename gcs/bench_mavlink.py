@@ -48,6 +48,7 @@ from rich.table import Table
 
 from gcs.errors import EXIT_OK, UsageError
 from gcs.mission import MAX_SYSID, Mission, MissionError, load_mission
+from gcs.percentile import percentile
 from gcs.sitl_cli import mock_fleet_configs
 from sitl_mock import telemetry
 from sitl_mock.faults import LinkFaults, VehicleFaults
@@ -316,14 +317,6 @@ async def _serve_fleet_async(
     return samples
 
 
-def _percentile(values: Sequence[float], q: float) -> float:
-    if not values:
-        return float("nan")
-    if len(values) == 1:
-        return values[0]
-    return statistics.quantiles(values, n=100, method="inclusive")[round(q) - 1]
-
-
 async def bench_fleet(
     mission_path: Path,
     vehicles: int,
@@ -424,7 +417,7 @@ def _fleet_figures(
     physics_lag = [s[1] for s in inside]
     loop_lag = [s[2] for s in inside]
     cpu = (inside[-1][3] - inside[0][3]) / (inside[-1][0] - inside[0][0]) if len(inside) > 1 else 0
-    lag_p95_ms = 1e3 * _percentile(physics_lag, 95)
+    lag_p95_ms = 1e3 * percentile(physics_lag, 95)
     keeps_up = min(shares) >= KEEP_UP_RATIO and lag_p95_ms <= max_lag_ms
     return {
         "vehicles": vehicles,
@@ -435,7 +428,7 @@ def _fleet_figures(
         "worst_stream": min(by_type, key=by_type.__getitem__),
         "physics_lag_p95_ms": lag_p95_ms,
         "physics_lag_max_ms": 1e3 * max(physics_lag, default=float("nan")),
-        "loop_lag_p95_ms": 1e3 * _percentile(loop_lag, 95),
+        "loop_lag_p95_ms": 1e3 * percentile(loop_lag, 95),
         "mock_cpu_share": cpu,
         "receiver_cpu_share": cpu_here_s / window_s,
         "keeps_up": keeps_up,

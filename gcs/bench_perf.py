@@ -34,7 +34,15 @@ from rich.table import Table
 
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
-from gcs.mission import Mission, Origin, PlannerSpec, Sensing, VehicleSpec, VehicleType
+from gcs.mission import (
+    Mission,
+    Origin,
+    PlannerSpec,
+    Sensing,
+    VehicleSpec,
+    VehicleType,
+    default_connection,
+)
 from gcs.preflight import charger_distances
 from gcs.simulate import simulate
 from sitl_mock import mapgen
@@ -105,7 +113,8 @@ class PlannerCase:
 
 
 def case_mission(grid: GridMap, agents: int, name: str, connections: list[str] | None = None):
-    """A mission of ``agents`` rovers on ``grid``, the battery set as the module says."""
+    """A mission of ``agents`` vehicles on ``grid`` (rovers, every fourth a copter), the
+    battery set as the module says; ``connections`` default to the mission defaults."""
     probe = _mission(grid, 1, 0.0, name, None)
     far = int(charger_distances(probe).max())
     energy = (100.0 - RESERVE_PCT) * FARTHEST_TRIP_SHARE / (2 * max(far, 1))
@@ -120,7 +129,7 @@ def _mission(
             sysid=i + 1,
             type=VehicleType.COPTER if i % 4 == 3 else VehicleType.ROVER,
             sensing=Sensing.RANGE,
-            connection=connections[i] if connections else f"udpin:127.0.0.1:{14550 + 10 * i}",
+            connection=connections[i] if connections else default_connection(i + 1),
             energy_per_m_pct=energy,
             battery_capacity_mah=5000.0,
             speed_m_s=2.0,

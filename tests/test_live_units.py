@@ -196,3 +196,14 @@ def test_settings_are_checked() -> None:
         EnergySettings(margin=0.9)
     with pytest.raises(ValueError):
         EnergyEstimator(0.0)
+
+
+def test_percentile_interpolates_and_bounds() -> None:
+    from gcs.percentile import percentile
+
+    values = [float(x) for x in range(1, 101)]
+    assert percentile(values, 50) == 50.5
+    assert percentile(values, 99) == 99.01
+    assert (percentile(values, 0), percentile(values, 100)) == (1.0, 100.0)
+    assert percentile([7.0], 99) == 7.0
+    assert percentile([], 50) != percentile([], 50)  # nan

@@ -39,6 +39,7 @@ from gcs.live.record import MissionRecord
 from gcs.live.shared import Level, Notify, Phase, SharedPlanner, VehicleView
 from gcs.mission import Mission, Sensing, VehicleSpec
 from gcs.mission_log import MissionLog
+from gcs.percentile import percentile
 from gcs.result import RunResult
 from gcs.simulate import planner_settings, prior_map
 from gcs.sitl_cli import mock_fleet_configs
@@ -324,10 +325,8 @@ async def _probe_loop_lag(samples: list[float]) -> None:
 
 
 def _percentile_ms(values_s: list[float], q: float) -> float:
-    if not values_s:
-        return 0.0
-    ordered = sorted(values_s)
-    return round(1000.0 * ordered[min(len(ordered) - 1, int(q * len(ordered)))], 3)
+    """Percentile ``q`` (0-100) in milliseconds; 0 when nothing was measured."""
+    return round(1000.0 * percentile(values_s, q), 3) if values_s else 0.0
 
 
 def load_figures(
@@ -338,10 +337,10 @@ def load_figures(
     fleet included with --sim) per wall second."""
     return {
         "decisions_timed": len(latency_s),
-        "decision_latency_ms_p50": _percentile_ms(latency_s, 0.50),
-        "decision_latency_ms_p99": _percentile_ms(latency_s, 0.99),
-        "decision_latency_ms_max": _percentile_ms(latency_s, 1.0),
-        "loop_lag_ms_p99": _percentile_ms(loop_lag_s, 0.99),
+        "decision_latency_ms_p50": _percentile_ms(latency_s, 50),
+        "decision_latency_ms_p99": _percentile_ms(latency_s, 99),
+        "decision_latency_ms_max": _percentile_ms(latency_s, 100),
+        "loop_lag_ms_p99": _percentile_ms(loop_lag_s, 99),
         "messages_in_per_s": round(messages / wall_s, 1) if wall_s > 0 else 0.0,
         "cpu_s_per_s": round(cpu_s / wall_s, 3) if wall_s > 0 else 0.0,
     }
