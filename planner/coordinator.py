@@ -571,7 +571,7 @@ class Coordinator:
         # into the reserve.
         if goal == self.belief.charger_index and not blocked:
             return path_to_charger(self.belief, a.index)
-        if self._roadmap is not None and not blocked and goal != self.belief.charger_index:
+        if self._roadmap is not None and not blocked:
             return self._roadmap.path(self.belief, a.index, goal)
         return self._search.path(a.index, goal, blocked)
 
