@@ -196,7 +196,7 @@ def reconstruct(contents: LogContents) -> RunResult:
     ids = list(contents.states)
     steps = min((len(s) for s in contents.states.values()), default=0)
     states = {i: contents.states[i][:steps] for i in ids}
-    belief, covered = _final_map(contents, shape, states)
+    belief, covered = final_map(contents, shape, states)
     kinds = _event_counts(contents)
     agents = tuple(_agent(i, states[i], cell_m, kinds) for i in ids)
     t_end = states[ids[0]][-1].t_s if steps else 0.0
@@ -240,7 +240,7 @@ def _event_counts(contents: LogContents) -> dict[tuple[str, int | None], int]:
     return counts
 
 
-def _final_map(
+def final_map(
     contents: LogContents, shape: tuple[int, int], states: dict[int, list[VehicleState]]
 ) -> tuple[np.ndarray, np.ndarray]:
     """The last logged map, with every cell a vehicle stood on since marked free and covered."""

@@ -7,6 +7,10 @@ ground station connects with exactly what the mission says. With
 style: vehicle i (0-based) on port P + 10 i; the ground station connects
 with ``tcp:127.0.0.1:P+10i``. Each vehicle's ground-station connection is
 printed, one line per vehicle, then the fleet runs until Ctrl-C or SIGTERM.
+With ``--keys FILE`` (``vehicles.keyfile``) a vehicle with a key signs what it
+sends and refuses unsigned or wrongly signed commands and replays.
+An armed vehicle whose ground station falls silent holds where it is
+(``--gcs-failsafe``, ``sitl_mock.failsafe``), ready for a restarted one.
 """
 
 from __future__ import annotations
@@ -23,19 +27,32 @@ from gcs.mission import Mission, MissionError, Sensing, load_mission
 from sitl_mock.battery import BatterySettings
 from sitl_mock.connection import ConnectionStringError, mirror
 from sitl_mock.endpoint import LinkSettings
+from sitl_mock.failsafe import FailsafeAction, GcsFailsafe
 from sitl_mock.fleet import MockFleet, MockVehicleConfig
 from sitl_mock.modes import VehicleKind
 from sitl_mock.vehicle import VehicleSettings
 from vehicles.clock import ScaledClock
+from vehicles.keyfile import KeyFile, KeyFileError, load_key_file, loose_permissions
 
 PROG = "sitl-mock"
 TCP_PORT_STEP = 10
+#: A mission's fleet holds where it is when its ground station falls silent (ArduPilot
+#: ships the GCS failsafe off): a restarted ground station finds every vehicle where its
+#: log last saw it, in a known mode, and takes over (``gcs run --resume``). A mission in
+#: AUTO (the way home) carries on.
+FLEET_GCS_FAILSAFE = GcsFailsafe(FailsafeAction.HOLD)
 
 
 def mock_fleet_configs(
-    mission: Mission, tcp_base_port: int | None = None, startup_delay_s: float = 0.0
+    mission: Mission,
+    tcp_base_port: int | None = None,
+    startup_delay_s: float = 0.0,
+    keys: KeyFile | None = None,
+    *,
+    gcs_failsafe: GcsFailsafe = FLEET_GCS_FAILSAFE,
 ) -> list[MockVehicleConfig]:
-    """One mock vehicle per vehicle of the mission, on the mirror side of its connection."""
+    """One mock vehicle per vehicle of the mission, on the mirror side of its connection;
+    a vehicle with a key in ``keys`` signs what it sends and refuses unsigned commands."""
     configs = []
     for i, spec in enumerate(mission.fleet):
         if tcp_base_port is None:
@@ -51,8 +68,11 @@ def mock_fleet_configs(
                     startup_delay_s=startup_delay_s,
                     start_cell=mission.charger,
                     range_sensing=spec.sensing is Sensing.RANGE,
+                    gcs_failsafe=gcs_failsafe,
                 ),
-                link=LinkSettings(connection),
+                link=LinkSettings(
+                    connection, signing_key=None if keys is None else keys.keys.get(spec.sysid)
+                ),
                 battery=BatterySettings(
                     capacity_mah=spec.battery_capacity_mah,
                     energy_per_m_pct=spec.energy_per_m_pct,
@@ -87,6 +107,28 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="S",
         help="seconds after start during which arming and uploads are refused (ArduPilot: ~24)",
     )
+    parser.add_argument(
+        "--gcs-failsafe",
+        choices=[a.value for a in FailsafeAction],
+        default=FLEET_GCS_FAILSAFE.action.value,
+        help="what an armed vehicle does when no ground station heartbeat came for the "
+        "timeout: hold where it is, return to launch, or nothing; a mission flown in AUTO "
+        f"carries on (default {FLEET_GCS_FAILSAFE.action.value})",
+    )
+    parser.add_argument(
+        "--gcs-failsafe-timeout",
+        type=float,
+        default=FLEET_GCS_FAILSAFE.timeout_s,
+        metavar="S",
+        help="seconds of vehicle time without a ground station heartbeat before the "
+        f"failsafe (ArduPilot FS_GCS_TIMEOUT; default {FLEET_GCS_FAILSAFE.timeout_s:g})",
+    )
+    parser.add_argument(
+        "--keys",
+        metavar="FILE",
+        help="MAVLink 2 signing keys by system id (YAML, see README): a vehicle with a key "
+        "signs what it sends and refuses unsigned or wrongly signed commands and replays",
+    )
     return parser
 
 
@@ -99,6 +141,11 @@ def _prepare(args: argparse.Namespace) -> tuple[Mission, list[MockVehicleConfig]
         raise _BadInput(f"--speedup must be positive, got {args.speedup}")
     if args.startup_delay < 0:
         raise _BadInput(f"--startup-delay must not be negative, got {args.startup_delay}")
+    if not args.gcs_failsafe_timeout > 0:
+        raise _BadInput(
+            f"--gcs-failsafe-timeout must be positive, got {args.gcs_failsafe_timeout}"
+        )
+    failsafe = GcsFailsafe(FailsafeAction(args.gcs_failsafe), args.gcs_failsafe_timeout)
     mission = load_mission(args.mission)
     if args.agents is not None:
         mission = mission.with_agents(args.agents)
@@ -106,7 +153,16 @@ def _prepare(args: argparse.Namespace) -> tuple[Mission, list[MockVehicleConfig]
         last = args.tcp_base_port + TCP_PORT_STEP * (len(mission.fleet) - 1)
         if not args.tcp_base_port > 0 or last > 65535:
             raise _BadInput(f"--tcp-base-port {args.tcp_base_port} gives ports out of range")
-    return mission, mock_fleet_configs(mission, args.tcp_base_port, args.startup_delay)
+    keys = None
+    if args.keys is not None:
+        keys = load_key_file(args.keys)
+        keys.check_fleet(v.sysid for v in mission.fleet)
+        warning = loose_permissions(args.keys)
+        if warning is not None:
+            print(f"{PROG}: warning: {warning}", file=sys.stderr)
+    return mission, mock_fleet_configs(
+        mission, args.tcp_base_port, args.startup_delay, keys, gcs_failsafe=failsafe
+    )
 
 
 async def _serve(
@@ -126,8 +182,10 @@ async def _serve(
         )
         for config in configs:
             kind = config.vehicle.kind.value
+            signed = " (signed)" if config.link.signing_key is not None else ""
             print(
-                f"vehicle {config.sysid} {kind}: {fleet.gcs_connection(config.sysid)}", flush=True
+                f"vehicle {config.sysid} {kind}: {fleet.gcs_connection(config.sysid)}{signed}",
+                flush=True,
             )
         await stop.wait()
 
@@ -137,7 +195,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         mission, configs = _prepare(args)
         asyncio.run(_serve(mission, configs, args))
-    except (MissionError, ConnectionStringError, _BadInput) as exc:
+    except (MissionError, KeyFileError, ConnectionStringError, _BadInput) as exc:
         print(f"{PROG}: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except OSError as exc:  # a port already in use, for instance

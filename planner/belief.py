@@ -45,7 +45,8 @@ class MapBelief:
             self.state[r * self.stride] = _OBSTACLE
             self.state[r * self.stride + cols + 1] = _OBSTACLE
         self.covered = bytearray(size)
-        #: Agent id + 1 of the first agent to cover a cell (0 = not covered).
+        #: Agent id + 1 of the first agent to cover a cell (0 = not covered, or covered
+        #: before a restart: ``Coordinator.restore`` covers with agent -1).
         self.covered_by = array("h", bytes(2 * size))
         self.charger_dist = array("i", [UNREACHED]) * size
         self.charger = charger

@@ -27,7 +27,7 @@ from planner import btp
 from planner.belief import UNREACHED, MapBelief
 from planner.fast_search import TargetSearch
 from planner.grid import MOVES, Cell, CellState, Direction, manhattan
-from planner.paths import path_to_charger
+from planner.paths import path_to_charger, path_to_known
 from planner.prm import Roadmap
 from planner.settings import (
     AgentSpec,
@@ -276,6 +276,22 @@ class Coordinator:
             self._release(a.pending, a.id)
         self._events.append(PlannerEvent(EventKind.LOST, a.id, self.belief.cell(a.index)))
 
+    def restore(self, known: np.ndarray, covered: np.ndarray, btps: Iterable[Cell]) -> None:
+        """Carry on where an earlier run of the same mission stopped (a ground station
+        restarted from its log): the map it knew (``CellState`` values), the cells it
+        covered, and its BTPs, which go to the global pool since their agents' plans
+        are gone. Call before the first ``observe``."""
+        if known.shape != self.belief.shape or covered.shape != self.belief.shape:
+            raise ValueError(f"restored map shape {known.shape} != {self.belief.shape}")
+        belief = self.belief
+        self._load_prior(np.where(covered, int(CellState.FREE), known))
+        for r, c in zip(*np.nonzero(covered), strict=True):
+            belief.cover((int(r), int(c)), btp.BtpStacks.POOL)
+        for cell in btps:
+            if belief.inside(cell) and belief.index(cell) in belief.uncovered:
+                self.stacks.push(btp.BtpStacks.POOL, belief.index(cell))
+        self._best_cost = None
+
     # -- the decision -------------------------------------------------------
 
     def decide(self, agent: int) -> Action:
@@ -290,6 +306,8 @@ class Coordinator:
         if a.mode == AgentMode.DONE:
             return WAIT
         at_charger = a.index == self.belief.charger_index
+        if self.belief.charger_dist[a.index] == UNREACHED:
+            return self._reconnect(a)
         if a.mode == AgentMode.CHARGE:
             if a.battery_pct < self.settings.resume_pct - _EPS:
                 return CHARGE
@@ -560,6 +578,20 @@ class Coordinator:
             a.charges += 1
             return CHARGE
         return self._follow(a, self.belief.charger_index)
+
+    def _reconnect(self, a: _Agent) -> Action:
+        """No known way home from here: head back to the known map through the cells
+        most likely free (``path_to_known``); the staying alive checks resume there."""
+        path = path_to_known(self.belief, a.index, frozenset(self._occupant) - {a.index})
+        if not path:
+            path = path_to_known(self.belief, a.index)
+        if not path or self._occupant.get(path[0], a.id) != a.id:
+            return WAIT
+        if self.belief.state[path[0]] != _FREE:
+            return WAIT  # not sensed yet: never step into the unknown
+        a.path.clear()
+        self._drop_claim(a)
+        return self._move(a, path[0])
 
     # -- moving along a path without collisions --------------------------------
 

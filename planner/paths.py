@@ -15,6 +15,7 @@ from planner.belief import MapBelief
 from planner.grid import CellState
 
 _FREE = int(CellState.FREE)
+_OBSTACLE = int(CellState.OBSTACLE)
 
 
 def nearest(
@@ -77,6 +78,31 @@ def path_to_charger(
         u = next(u + s for s in steps if dist[u + s] == dist[u] - 1)
         path.append(u)
     return path
+
+
+def path_to_known(belief: MapBelief, start: int, blocked: Collection[int] = ()) -> list[int] | None:
+    """The shortest way from ``start`` to a cell with a known way home, taking unknown
+    cells as free (the free-space assumption), or None if walls close every way.
+
+    For an agent that stands where the map it knows does not join the charger (a
+    mission resumed from a log that ends a few moves before the vehicle stopped):
+    it follows this path one step at a time, sensing as it goes, and replans when a
+    wall turns up; since it came from the known map there is a way back. The first
+    step is always a sensed neighbour."""
+    state, steps, dist = belief.state, belief.steps, belief.charger_dist
+    parent = {start: start}
+    queue = deque([start])
+    while queue:
+        u = queue.popleft()
+        for s in steps:
+            v = u + s
+            if v in parent or state[v] == _OBSTACLE or v in blocked:
+                continue
+            parent[v] = u
+            if dist[v] < 1 << 30:
+                return _unwind(parent, start, v)
+            queue.append(v)
+    return None
 
 
 def bfs_distances(belief: MapBelief, start: int) -> dict[int, int]:

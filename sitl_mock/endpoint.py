@@ -2,8 +2,9 @@
 
 pymavlink is used only as a codec (``parse_buffer`` in, ``pack`` out); the
 bytes travel over our own asyncio transports (``sitl_mock.transport``).
-Each peer gets its own codec, so sequence numbers, parser state and
-signing streams are per peer, as on a real autopilot's channels.
+Each peer gets its own codec, so sequence numbers and parser state are
+per peer, as on a real autopilot's channels; signing stream timestamps are
+shared by all of them (``sitl_mock.signing``).
 Telemetry streams tick on the injected clock, so a sped-up clock speeds
 every stream up with it.
 
@@ -16,7 +17,6 @@ from __future__ import annotations
 import asyncio
 import logging
 import random
-import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -40,6 +40,7 @@ from sitl_mock.faults import (
     VehicleFaults,
 )
 from sitl_mock.mission_server import MissionProtocolSettings, MissionServer
+from sitl_mock.signing import StreamTimestamps, enable_signing
 from sitl_mock.transport import Peer, Transport, make_transport
 from sitl_mock.vehicle import CommandRefused, Vehicle
 from vehicles.clock import Clock
@@ -47,8 +48,6 @@ from vehicles.clock import Clock
 log = logging.getLogger(__name__)
 
 Message = mavlink.MAVLink_message
-#: Seconds from the Unix epoch to the MAVLink signing epoch (2015-01-01).
-_SIGNING_EPOCH_S = 1_420_070_400
 _STATUSTEXT_LEN = 50
 _POSITION_IGNORED = (
     mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE
@@ -61,7 +60,7 @@ class LinkSettings:
 
     #: The mock's own side, e.g. ``udpout:127.0.0.1:14550`` (see ``connection.mirror``).
     connection: str
-    signing_key: bytes | None = None
+    signing_key: bytes | None = field(default=None, repr=False)
     allow_non_loopback: bool = False
     component_id: int = mavlink.MAV_COMP_ID_AUTOPILOT1
     mission: MissionProtocolSettings = field(default_factory=MissionProtocolSettings)
@@ -122,11 +121,20 @@ class VehicleEndpoint:
             "SET_MODE": self._on_set_mode,
             "SET_POSITION_TARGET_GLOBAL_INT": self._on_position_target,
             "TIMESYNC": self._on_timesync,
+            "HEARTBEAT": self._on_heartbeat,
             **self.mission.handlers(),
         }
         self.silent = False
         #: Incoming messages refused for a missing or bad signature.
         self.rejected_signatures = 0
+        #: Incoming garbage: bytes that are no frame, truncated frames, bad CRCs.
+        self.bad_frames = 0
+        #: Well-formed frames of a message id the dialect does not know.
+        self.unknown_messages = 0
+        #: Good frames addressed to another system (``target_system``), ignored.
+        self.foreign_frames = 0
+        #: Signing stream timestamps, one table for every peer (no replay on another).
+        self._signing_streams: StreamTimestamps = {}
         self._started = False
         vehicle.subscribe(self._on_vehicle_event)
 
@@ -159,10 +167,7 @@ class VehicleEndpoint:
         codec = mavlink.MAVLink(None, self.vehicle.id, self.link.component_id)
         codec.robust_parsing = True
         if self.link.signing_key is not None:
-            codec.signing.secret_key = self.link.signing_key
-            codec.signing.sign_outgoing = True
-            codec.signing.timestamp = int((time.time() - _SIGNING_EPOCH_S) * 100_000)
-            codec.signing.allow_unsigned_callback = _allow_unsigned
+            enable_signing(codec, self.link.signing_key, self._signing_streams)
         self._channels[id(peer)] = _Channel(peer, codec)
 
     def peer_closed(self, peer: Peer) -> None:
@@ -172,12 +177,7 @@ class VehicleEndpoint:
         channel = self._channels.get(id(peer))
         if channel is None or self.silent:
             return
-        messages = channel.codec.parse_buffer(data) or []
-        for msg in messages:
-            if msg.get_type() == "BAD_DATA":
-                if "signature" in str(getattr(msg, "reason", "")).lower():
-                    self.rejected_signatures += 1
-                continue
+        for msg in self._parse(channel.codec, data, whole_frames=peer.datagrams):
             if self._link_down() or self._lost(self._rng_from_gcs, self.faults.link.loss_from_gcs):
                 continue
             latency = self.clock.to_real(self.faults.link.latency_s)
@@ -185,6 +185,41 @@ class VehicleEndpoint:
                 asyncio.get_running_loop().call_later(latency, self._dispatch, peer, msg)
             else:
                 self._dispatch(peer, msg)
+
+    def _parse(self, codec: mavlink.MAVLink, data: bytes, *, whole_frames: bool) -> list[Message]:
+        """The good messages in ``data`` for this vehicle. Garbage, truncated frames,
+        bad CRCs and signatures, unknown message ids and frames addressed to another
+        system are counted and dropped, never raised: nothing on the wire may stop
+        the mock. ``whole_frames``: ``data`` is a datagram, so a frame cut at its
+        end is garbage, not the start of the next datagram's frame."""
+        try:
+            messages = codec.parse_buffer(data) or []
+        except Exception as exc:  # pymavlink raises a few things; never let them out
+            log.debug("vehicle %d: unparsable data: %s", self.vehicle.id, exc)
+            self.bad_frames += 1
+            _reset_parser(codec)
+            return []
+        good = [msg for msg in messages if self._count_in(msg)]
+        if whole_frames and codec.buf_len() > 0:
+            self.bad_frames += 1
+            _reset_parser(codec)
+        return good
+
+    def _count_in(self, msg: Message) -> bool:
+        """Count a parsed message; true if it is a good one for this vehicle."""
+        if isinstance(msg, mavlink.MAVLink_bad_data):
+            if "signature" in str(msg.reason).lower():
+                self.rejected_signatures += 1
+            else:
+                self.bad_frames += 1
+            return False
+        if isinstance(msg, mavlink.MAVLink_unknown):
+            self.unknown_messages += 1
+            return False
+        if getattr(msg, "target_system", 0) not in (0, self.vehicle.id):
+            self.foreign_frames += 1
+            return False
+        return True
 
     # ------------------------------------------------------------------ faults
 
@@ -363,16 +398,23 @@ class VehicleEndpoint:
         except CommandRefused as refusal:
             log.debug("vehicle %d ignored a position target: %s", self.vehicle.id, refusal.text)
 
+    def _on_heartbeat(self, peer: Peer, msg: Any) -> None:
+        """A ground station's heartbeat keeps the vehicle's GCS failsafe away."""
+        if msg.type == mavlink.MAV_TYPE_GCS:
+            self.vehicle.gcs_heartbeat()
+
     def _on_timesync(self, peer: Peer, msg: Any) -> None:
         if msg.tc1 == 0:
             now_ns = int(self.vehicle.elapsed_s * 1e9)
             self._send_to(peer, self._encoder.timesync_encode(now_ns, msg.ts1))
 
 
-def _allow_unsigned(codec: mavlink.MAVLink, message_id: int) -> bool:
-    """With signing on, only radio status may come unsigned (as on ArduPilot)."""
-    return message_id in (mavlink.MAVLINK_MSG_ID_RADIO_STATUS, mavlink.MAVLINK_MSG_ID_RADIO)
-
-
 def _refusal_severity(text: str) -> Severity:
     return Severity.CRITICAL if text.startswith("PreArm") else Severity.WARNING
+
+
+def _reset_parser(codec: mavlink.MAVLink) -> None:
+    """Drop whatever partial frame the parser holds (pymavlink has no call for it)."""
+    codec.buf = bytearray()
+    codec.buf_index = 0
+    codec.expected_length = mavlink.HEADER_LEN_V1 + 2

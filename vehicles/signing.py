@@ -3,24 +3,32 @@
 We sign everything we send once a key is set. Incoming messages must be
 signed with the same key when ``require_signed`` is true; otherwise unsigned
 messages are accepted too (but a message signed with a wrong key never is).
+A signed message is also refused when its timestamp is not newer than the
+last one of its stream (link id, system, component): a replay. The signature
+is checked before the timestamp is believed (pymavlink's own check does it the
+other way round, so one forged frame stamped far ahead would make every later
+genuine frame of its stream look like a replay).
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 KEY_LEN = 32
 #: Signing timestamps count 10 µs ticks since 2015-01-01 00:00:00 UTC.
 _SIGNING_EPOCH_UNIX_S = 1_420_070_400
+#: A stream not seen before may start at most one minute (in 10 µs ticks) behind us.
+_NEW_STREAM_SLACK = 6_000_000
 
 
 @dataclass(frozen=True)
 class SigningConfig:
-    key: bytes
+    key: bytes = field(repr=False)  # a secret: never in a log line
     link_id: int = 0
     require_signed: bool = False
 
@@ -68,3 +76,26 @@ def apply_signing(codec: mavlink.MAVLink, config: SigningConfig | None) -> None:
     codec.signing.sign_outgoing = True
     codec.signing.timestamp = max(codec.signing.timestamp, signing_timestamp())
     codec.signing.allow_unsigned_callback = None if config.require_signed else _accept_unsigned
+    # pymavlink calls ``self.check_signature(...)``: an instance attribute replaces it.
+    codec.check_signature = functools.partial(_check_signature, codec)  # type: ignore[method-assign]
+
+
+def _check_signature(
+    codec: mavlink.MAVLink, msgbuf: bytearray, src_system: int, src_component: int
+) -> bool:
+    """True when ``msgbuf`` carries a good signature newer than its stream's last one."""
+    signing = codec.signing
+    digest = hashlib.sha256(signing.secret_key + bytes(msgbuf[:-6])).digest()[:6]
+    if digest != bytes(msgbuf[-6:]):
+        return False
+    tlow, thigh = codec.mav_sign_unpacker.unpack(msgbuf[-12:-6])
+    timestamp = tlow + (thigh << 32)
+    stream = (msgbuf[-13], src_system, src_component)
+    last = signing.stream_timestamps.get(stream)
+    if last is not None and timestamp <= last:
+        return False  # a replay
+    if last is None and timestamp + _NEW_STREAM_SLACK < signing.timestamp:
+        return False  # a new stream that starts in the past
+    signing.stream_timestamps[stream] = timestamp
+    signing.timestamp = max(signing.timestamp, timestamp)
+    return True

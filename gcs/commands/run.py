@@ -22,11 +22,13 @@ from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.live.agent import AgentSettings
 from gcs.live.display import LiveDisplay
 from gcs.live.mission import LiveOptions, MissionRefused, SimFaults, run_live
+from gcs.live.resume import ResumeError, load_resume_point
 from gcs.mission import Mission
 from gcs.mission_log import MissionLog, NullLog
 from gcs.preflight import check_range
 from gcs.report import print_summary
 from gcs.result import RunResult
+from vehicles.keyfile import KeyFile, KeyFileError, load_key_file, loose_permissions
 
 #: The mission log's file name in ``--out``.
 EXIT_INTERRUPTED = 130
@@ -63,6 +65,21 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--out", type=Path, help="write report.json, PNG figures and mission.mcap to this folder"
     )
     p.add_argument("--quiet", action="store_true", help="no live display; print only errors")
+    p.add_argument(
+        "--resume",
+        type=Path,
+        metavar="LOG.mcap",
+        help="carry on a mission whose ground station stopped (crashed, killed, aborted) from "
+        "its log: what it mapped and covered is not covered again, and every vehicle is taken "
+        "over where it is; write the new log to another --out folder",
+    )
+    p.add_argument(
+        "--keys",
+        type=Path,
+        metavar="FILE",
+        help="MAVLink 2 signing keys by system id (YAML, see README): a vehicle with a key is "
+        "signed both ways and its unsigned frames are refused; with --sim its mock too",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed for the planner and the mock fleet")
     p.add_argument(
         "--lost-after",
@@ -144,6 +161,16 @@ def options_from(args: argparse.Namespace, mission: Mission) -> LiveOptions:
     if faulty and not args.sim:
         raise UsageError("--sim-* faults need --sim")
     agent = dataclasses.replace(AgentSettings(), lost_after_s=args.lost_after)
+    resume = None
+    if args.resume is not None:
+        if args.out is not None and (args.out / LOG_NAME).resolve() == args.resume.resolve():
+            raise UsageError(
+                f"--out {args.out} would overwrite the log being resumed: choose another folder"
+            )
+        try:
+            resume = load_resume_point(args.resume, mission)
+        except ResumeError as exc:
+            raise UsageError(str(exc)) from exc
     return LiveOptions(
         sim=args.sim,
         speedup=speedup,
@@ -157,7 +184,24 @@ def options_from(args: argparse.Namespace, mission: Mission) -> LiveOptions:
             cuts=tuple(cuts),
         ),
         agent=agent,
+        resume=resume,
+        keys=keys_from(args, mission),
     )
+
+
+def keys_from(args: argparse.Namespace, mission: Mission) -> KeyFile | None:
+    """The fleet's signing keys of ``--keys`` (warns when the file is open to others)."""
+    if args.keys is None:
+        return None
+    try:
+        keys = load_key_file(args.keys)
+        keys.check_fleet(v.sysid for v in mission.fleet)
+    except KeyFileError as exc:
+        raise UsageError(str(exc)) from exc
+    warning = loose_permissions(args.keys)
+    if warning is not None:
+        print(f"gcs run: warning: {warning}", file=sys.stderr)
+    return keys
 
 
 def run(args: argparse.Namespace) -> int:

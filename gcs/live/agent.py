@@ -140,8 +140,8 @@ class Agent:
             await asyncio.gather(*self._helpers, return_exceptions=True)
 
     async def _work(self) -> None:
-        pos = await self.pilot.wait_position(lambda _p: True, self.settings.pilot.sensing_timeout_s)
-        await self._arrive(self.charger, pos)
+        await self.pilot.wait_position(lambda _p: True, self.settings.pilot.sensing_timeout_s)
+        await self._resync()  # on the charger, or wherever a resumed mission finds it
         action: Action | None = None
         failures = 0
         while True:

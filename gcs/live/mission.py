@@ -36,6 +36,7 @@ from gcs.live.agent import Agent, AgentSettings, send_home
 from gcs.live.energy import EnergyEstimator, EnergySettings, model_prior
 from gcs.live.pilot import Pilot
 from gcs.live.record import MissionRecord
+from gcs.live.resume import ResumePoint
 from gcs.live.shared import Level, Notify, Phase, SharedPlanner, VehicleView
 from gcs.mission import Mission, Sensing, VehicleSpec
 from gcs.mission_log import MissionLog
@@ -51,7 +52,8 @@ from sitl_mock.fleet import MockFleet, MockVehicleConfig
 from vehicles.clock import Clock, ScaledClock
 from vehicles.commands import CommandSettings
 from vehicles.errors import LinkError
-from vehicles.link import LinkSettings, VehicleLink
+from vehicles.keyfile import KeyFile
+from vehicles.link import LinkSettings, VehicleLink, rejected_frames
 from vehicles.mission_protocol import MissionSettings
 from vehicles.modes import FlightMode, VehicleKind
 from vehicles.telemetry import Topic
@@ -113,6 +115,12 @@ class LiveOptions:
     abort_return_s: float = 300.0
     faults: SimFaults = field(default_factory=SimFaults)
     agent: AgentSettings = field(default_factory=AgentSettings)
+    #: Carry on from an earlier run's log: its map, coverage and BTPs, the vehicles
+    #: taken over wherever they are (``gcs run --resume``).
+    resume: ResumePoint | None = None
+    #: MAVLink 2 signing keys (``gcs run --keys``): a vehicle with a key is signed both
+    #: ways and its unsigned frames are refused; with ``sim`` its mock does the same.
+    keys: KeyFile | None = field(default=None, repr=False)
     energy: EnergySettings = field(default_factory=EnergySettings)
 
 
@@ -126,6 +134,8 @@ class LiveRun:
     planner: SharedPlanner | None = None
     started_at: float | None = None
     aborted: bool = False
+    #: The open links (the display shows what each one rejected).
+    links: dict[int, VehicleLink] = field(default_factory=dict)
 
     @property
     def elapsed_s(self) -> float:
@@ -133,12 +143,15 @@ class LiveRun:
 
 
 def link_settings(options: LiveOptions, clock: Clock) -> LinkSettings:
-    """Link timing: heartbeat loss in mission time; on loopback with the mock, short
-    command and mission timeouts (a lost packet must not cost minutes of mission time)."""
+    """Link timing: heartbeat loss in mission time; our heartbeat at 1 Hz of mission
+    time (a vehicle's GCS failsafe counts in its own time: 1 Hz of real time would trip
+    it under a speed-up), at most 50 Hz; on loopback with the mock, short command and
+    mission timeouts (a lost packet must not cost minutes of mission time)."""
     lost_real = max(0.5, clock.to_real(options.link_lost_after_s))
     if not options.sim and options.speedup <= 1.0:
         return LinkSettings(link_lost_after_s=lost_real)
     return LinkSettings(
+        heartbeat_period_s=min(1.0, max(0.02, clock.to_real(1.0))),
         link_lost_after_s=lost_real,
         not_ready_retry_s=0.2,
         commands=CommandSettings(timeout_s=0.25, retries=6, in_progress_timeout_s=5.0),
@@ -148,10 +161,12 @@ def link_settings(options: LiveOptions, clock: Clock) -> LinkSettings:
     )
 
 
-def sim_configs(mission: Mission, faults: SimFaults) -> list[MockVehicleConfig]:
-    """The mission's mock fleet with the requested faults."""
+def sim_configs(
+    mission: Mission, faults: SimFaults, keys: KeyFile | None = None
+) -> list[MockVehicleConfig]:
+    """The mission's mock fleet with the requested faults (and signing keys)."""
     configs = []
-    for config in mock_fleet_configs(mission):
+    for config in mock_fleet_configs(mission, keys=keys):
         cuts = tuple(LinkCut(at, d) for sysid, at, d in faults.cuts if sysid == config.sysid)
         link = LinkFaults(
             loss_to_gcs=faults.loss,
@@ -184,7 +199,7 @@ async def run_live(
     run = LiveRun(mission, clock, views)
     if on_start is not None:
         on_start(run)
-    links: dict[int, VehicleLink] = {}
+    links = run.links
     fleet: MockFleet | None = None
     t0 = clock.now()
     try:
@@ -192,14 +207,17 @@ async def run_live(
         for spec in mission.fleet:
             try:
                 links[spec.sysid] = await VehicleLink.connect(
-                    spec.connection, target_system=spec.sysid, settings=settings
+                    spec.connection,
+                    target_system=spec.sysid,
+                    settings=settings,
+                    signing=None if options.keys is None else options.keys.signing(spec.sysid),
                 )
             except LinkError as exc:
                 raise MissionRefused(f"vehicle {spec.sysid}: {exc}", EXIT_BAD_INPUT) from exc
             _tap(links[spec.sysid], spec.sysid, mission_log, clock, t0)
         if options.sim:
             fleet = MockFleet(
-                sim_configs(mission, options.faults),
+                sim_configs(mission, options.faults, options.keys),
                 mission.map,
                 mission.geo,
                 clock,
@@ -251,6 +269,12 @@ async def _ready(
     try:
         status = await link.wait_heartbeat(timeout_s=options.heartbeat_timeout_s)
     except LinkError as exc:
+        refused = link.transport.stats.bad_signatures
+        if refused:  # only with a key: a link without one never checks signatures
+            raise MissionRefused(
+                f"{who}: {exc}; {refused} frame(s) refused for their signature "
+                "(unsigned, or signed with another key)"
+            ) from exc
         raise MissionRefused(f"{who}: {exc}") from exc
     profile = link.profile
     if profile is None or profile.kind.value != spec.type.value:
@@ -283,6 +307,13 @@ async def _ready(
                 EXIT_BAD_INPUT,
             ) from None
     cell = pilot.cell_of(pos)
+    if options.resume is not None:
+        # Taken over wherever the failsafe left it: on the ground, holding, or on its way home.
+        if not mission.map.inside(cell):
+            raise MissionRefused(f"{who} is on cell {cell}, outside the mission's map")
+        views[spec.sysid].phase = Phase.READY
+        views[spec.sysid].battery_pct = link.telemetry.battery.remaining_pct
+        return
     if cell != mission.charger:
         raise MissionRefused(
             f"{who} is on cell {cell}, not on the charger {mission.charger}: bring it to the pad"
@@ -373,6 +404,9 @@ async def _fly(
         planner_settings(mission, options.seed),
         prior=prior_map(mission),
     )
+    resume = options.resume
+    if resume is not None:
+        coordinator.restore(resume.known, resume.covered, resume.btps)
     reachable = mission.map.reachable(mission.charger)
     record = MissionRecord(
         mission=mission.name,
@@ -384,7 +418,12 @@ async def _fly(
         reachable=reachable,
     )
     for v in mission.fleet:
-        record.add_agent(v.sysid, links[v.sysid].telemetry.battery.remaining_pct or 100.0)
+        position = links[v.sysid].telemetry.position
+        record.add_agent(
+            v.sysid,
+            links[v.sysid].telemetry.battery.remaining_pct or 100.0,
+            mission.charger if position is None else pilots[v.sysid].cell_of(position),
+        )
     planner = SharedPlanner(coordinator, record, run.clock, mission_log, notify, run.views)
     planner.t0 = t0
     run.planner = planner
@@ -403,6 +442,13 @@ async def _fly(
         for v in mission.fleet
     }
     mission_log.event(planner.t_s, f"mission {mission.name} starts with {len(agents)} vehicles")
+    if resume is not None:
+        text = (
+            f"resumed from {resume.source.name}: {resume.covered_cells} cells covered by "
+            f"{resume.last_t_s:.0f} s of the earlier run"
+        )
+        notify(text, Level.INFO, None)
+        mission_log.event(planner.t_s, text)
     tasks = {sysid: asyncio.ensure_future(agent.run()) for sysid, agent in agents.items()}
     stop = asyncio.ensure_future(abort.wait())
     limit = None if options.time_limit_s is None else run.clock.to_real(options.time_limit_s)
@@ -447,9 +493,15 @@ async def _fly(
         mission_s=planner.t_s,
         extra={
             "aborted": int(interrupted),
+            **(
+                {"resumed_covered_cells": resume.covered_cells, "resumed_at_s": resume.last_t_s}
+                if resume is not None
+                else {}
+            ),
             "speedup": options.speedup,
             "moves_held_back": planner.held_back,
             "waits": planner.waits,
+            **rejected_frames(links.values()).report_fields(),
             **load_figures(
                 planner.decision_latency_s,
                 sum(link.messages_in for link in links.values()) - messages0,

@@ -49,8 +49,10 @@ class MissionRecord:
     coverage_arrivals: int | None = None
     coverage_s: float | None = None
 
-    def add_agent(self, agent: int, battery_pct: float) -> None:
-        self.agents[agent] = AgentLog(track=[self.charger], battery_pct=[battery_pct])
+    def add_agent(self, agent: int, battery_pct: float, cell: Cell | None = None) -> None:
+        """An agent starting on ``cell`` (the charger unless a mission is resumed)."""
+        start = self.charger if cell is None else cell
+        self.agents[agent] = AgentLog(track=[start], battery_pct=[battery_pct])
 
     def arrived(self, agent: int, cell: Cell, battery_pct: float, covered: int) -> None:
         log = self.agents[agent]
