@@ -42,7 +42,7 @@ class MissionError(ValueError):
 
     def __init__(self, source: str, key: str | None, problem: str) -> None:
         where = f"{source}: {key}: " if key else f"{source}: "
-        super().__init__(where + problem)
+        super().__init__(_one_line(where + problem))
         self.source = source
         self.key = key
         self.problem = problem
@@ -185,6 +185,8 @@ def load_mission(path: str | Path) -> Mission:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         raise MissionError(source, None, _yaml_problem(exc)) from None
+    except ValueError as exc:  # PyYAML's int() of a number longer than Python allows
+        raise MissionError(source, None, f"invalid YAML: {exc}") from None
     if data is None:
         raise MissionError(source, None, "file is empty (a mission needs at least 'map')")
     if not isinstance(data, dict):
@@ -241,7 +243,11 @@ class _Loader:
         if not isinstance(value, str) or not value.strip():
             raise self.fail("map", f"must be a file path, got {_show(value)}")
         file = self.path.parent / value
-        if not file.is_file():
+        try:
+            found = file.is_file()
+        except OSError as exc:  # e.g. a name too long for the file system
+            raise self.fail("map", f"cannot read {file}: {exc.strerror or exc}") from None
+        if not found:
             raise self.fail("map", f"file not found: {file}")
         try:
             grid = load_map(file, require_pad=False)
@@ -497,7 +503,20 @@ def _is_int(value: Any) -> bool:
 
 
 def _is_number(value: Any) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an integer too large for a float
+        return False
+
+
+def _one_line(text: str) -> str:
+    """``text`` with line breaks and other unprintable characters escaped, so that a
+    key or value from the file (``"a\\nb"``) cannot break the message over lines."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def _kind(value: Any) -> str:

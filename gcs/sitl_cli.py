@@ -142,9 +142,7 @@ def _prepare(args: argparse.Namespace) -> tuple[Mission, list[MockVehicleConfig]
     if args.startup_delay < 0:
         raise _BadInput(f"--startup-delay must not be negative, got {args.startup_delay}")
     if not args.gcs_failsafe_timeout > 0:
-        raise _BadInput(
-            f"--gcs-failsafe-timeout must be positive, got {args.gcs_failsafe_timeout}"
-        )
+        raise _BadInput(f"--gcs-failsafe-timeout must be positive, got {args.gcs_failsafe_timeout}")
     failsafe = GcsFailsafe(FailsafeAction(args.gcs_failsafe), args.gcs_failsafe_timeout)
     mission = load_mission(args.mission)
     if args.agents is not None:

@@ -180,7 +180,7 @@ class VehicleEndpoint:
         for msg in self._parse(channel.codec, data, whole_frames=peer.datagrams):
             if self._link_down() or self._lost(self._rng_from_gcs, self.faults.link.loss_from_gcs):
                 continue
-            latency = self.clock.to_real(self.faults.link.latency_s)
+            latency = self.clock.to_real(self.faults.link.delay_s(self._rng_from_gcs))
             if latency > 0:
                 asyncio.get_running_loop().call_later(latency, self._dispatch, peer, msg)
             else:
@@ -237,7 +237,7 @@ class VehicleEndpoint:
             return
         data = msg.pack(channel.codec)
         channel.codec.seq = (channel.codec.seq + 1) % 256
-        latency = self.clock.to_real(self.faults.link.latency_s)
+        latency = self.clock.to_real(self.faults.link.delay_s(self._rng_to_gcs))
         if latency > 0:
             asyncio.get_running_loop().call_later(latency, channel.peer.write, data)
         else:

@@ -28,6 +28,8 @@ class LinkFaults:
     loss_to_gcs: float = 0.0
     loss_from_gcs: float = 0.0
     latency_s: float = 0.0
+    #: Each packet waits a further U(0, jitter_s) seconds, so packets may overtake.
+    jitter_s: float = 0.0
     cuts: tuple[LinkCut, ...] = ()
 
     def __post_init__(self) -> None:
@@ -35,8 +37,14 @@ class LinkFaults:
             value = getattr(self, name)
             if not 0.0 <= value <= 1.0:
                 raise ValueError(f"{name} must be in [0, 1], got {value}")
-        if self.latency_s < 0:
-            raise ValueError(f"latency_s must not be negative, got {self.latency_s}")
+        if self.latency_s < 0 or self.jitter_s < 0:
+            raise ValueError(
+                f"latency and jitter must not be negative: {self.latency_s}, {self.jitter_s}"
+            )
+
+    def delay_s(self, rng: random.Random) -> float:
+        """This packet's latency (simulated seconds)."""
+        return self.latency_s + (rng.uniform(0.0, self.jitter_s) if self.jitter_s > 0 else 0.0)
 
     def cut_at(self, t_s: float) -> bool:
         return any(c.at_s <= t_s < c.at_s + c.duration_s for c in self.cuts)

@@ -31,8 +31,10 @@ class CopterMode(IntEnum):
     STABILIZE = 0
     AUTO = 3
     GUIDED = 4
+    LOITER = 5
     RTL = 6
     LAND = 9
+    BRAKE = 17
 
 
 class Behaviour(Enum):
@@ -55,9 +57,12 @@ class KindProfile:
     initial_mode: int
     #: Where a rover goes when its mission completes (None: stay in AUTO).
     mode_after_mission: int | None
-    #: Modes one may not arm in (ArduPilot: RTL; Copter also LAND and AUTO without takeoff).
+    #: Modes one may not arm in (ArduPilot: RTL; Copter also LAND, BRAKE and AUTO
+    #: without takeoff).
     unarmable: frozenset[int] = field(default_factory=frozenset)
     flies: bool = False
+    #: Where the GCS failsafe's HOLD puts the vehicle (Rover HOLD; Copter BRAKE).
+    failsafe_hold_mode: int | None = None
 
     def mode_for(self, behaviour: Behaviour) -> int:
         for number, b in self.modes.items():
@@ -86,6 +91,7 @@ PROFILES: Mapping[VehicleKind, KindProfile] = {
         initial_mode=RoverMode.HOLD,
         mode_after_mission=RoverMode.HOLD,
         unarmable=frozenset({RoverMode.RTL}),
+        failsafe_hold_mode=RoverMode.HOLD,
     ),
     VehicleKind.COPTER: KindProfile(
         mav_type=mavlink.MAV_TYPE_QUADROTOR,
@@ -93,12 +99,15 @@ PROFILES: Mapping[VehicleKind, KindProfile] = {
             CopterMode.STABILIZE: Behaviour.MANUAL,
             CopterMode.AUTO: Behaviour.AUTO,
             CopterMode.GUIDED: Behaviour.GUIDED,
+            CopterMode.LOITER: Behaviour.HOLD,
             CopterMode.RTL: Behaviour.RTL,
             CopterMode.LAND: Behaviour.LAND,
+            CopterMode.BRAKE: Behaviour.HOLD,
         },
         initial_mode=CopterMode.STABILIZE,
         mode_after_mission=None,
-        unarmable=frozenset({CopterMode.RTL, CopterMode.LAND}),
+        unarmable=frozenset({CopterMode.RTL, CopterMode.LAND, CopterMode.BRAKE}),
         flies=True,
+        failsafe_hold_mode=CopterMode.BRAKE,
     ),
 }

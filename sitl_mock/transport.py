@@ -18,6 +18,9 @@ log = logging.getLogger(__name__)
 
 class Peer(Protocol):
     name: str
+    #: Whether each ``peer_received`` call is one datagram (whole frames only) or a
+    #: slice of a byte stream (a frame may go on in the next call).
+    datagrams: bool
 
     def write(self, data: bytes) -> None: ...
 
@@ -40,6 +43,8 @@ class Transport(Protocol):
 
 
 class _UdpPeer:
+    datagrams = True
+
     def __init__(self, transport: asyncio.DatagramTransport, address: tuple[str, int]) -> None:
         self._transport = transport
         self.address = address
@@ -107,6 +112,8 @@ class _UdpTransport:
 
 
 class _TcpPeer:
+    datagrams = False
+
     def __init__(self, writer: asyncio.StreamWriter) -> None:
         self._writer = writer
         host, port = writer.get_extra_info("peername")[:2]

@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 import random
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
@@ -34,6 +34,7 @@ from sitl_mock.events import (
     VehicleDied,
     VehicleEvent,
 )
+from sitl_mock.failsafe import FailsafeAction, GcsFailsafe, GcsWatch
 from sitl_mock.mission_items import MissionItem
 from sitl_mock.modes import PROFILES, Behaviour, KindProfile, VehicleKind
 from sitl_mock.ranging import axis_exit
@@ -66,6 +67,8 @@ class VehicleSettings:
     #: Range sensors (DISTANCE_SENSOR x 8, OBSTACLE_DISTANCE); False for a vehicle given the map.
     range_sensing: bool = True
     range_max_m: float = 10.0
+    #: What the vehicle does when its ground station falls silent (default: nothing).
+    gcs_failsafe: GcsFailsafe = field(default_factory=GcsFailsafe)
 
     def __post_init__(self) -> None:
         if self.speed_m_s <= 0:
@@ -127,6 +130,7 @@ class Vehicle:
         self._wait_s = 0.0
         self._ground_idle_s = 0.0
         self._worst_charge_state = ChargeState.OK
+        self._gcs = GcsWatch(settings.gcs_failsafe)
         self._listeners: list[Callable[[VehicleEvent], None]] = []
 
     # ------------------------------------------------------------------ observers
@@ -179,6 +183,11 @@ class Vehicle:
     @property
     def stopped_by_refusal(self) -> bool:
         return self._refused_goal is not None
+
+    @property
+    def gcs_failsafe_active(self) -> bool:
+        """The GCS failsafe has triggered and no ground station has been heard since."""
+        return self._gcs.active
 
     # ------------------------------------------------------------------ commands
 
@@ -252,6 +261,52 @@ class Vehicle:
 
     def return_to_launch(self) -> None:
         self.set_mode(self.profile.mode_for(Behaviour.RTL))
+
+    # ------------------------------------------------------------------ GCS failsafe
+
+    def gcs_heartbeat(self) -> None:
+        """A ground station's HEARTBEAT (MAV_TYPE_GCS) arrived: the failsafe is armed from
+        now on, and an active one clears (the mode stays: the ground station decides)."""
+        if self._gcs.heard(self.elapsed_s):
+            severity = Severity.WARNING if self.profile.flies else Severity.INFO
+            self._say("GCS Failsafe Cleared", severity)
+
+    def gcs_failsafe(self, action: FailsafeAction) -> None:
+        """Act on ground-station loss as ArduPilot does (see ``sitl_mock.failsafe``):
+        a copter on the ground disarms, a landing goes on, a mission in AUTO goes on
+        (with ``continue_auto``), else ``action``: HOLD stops here (Rover HOLD, Copter
+        BRAKE), RTL returns to launch (falling back to HOLD, or LAND for a copter)."""
+        self._gcs.active = True
+        behaviour = self.behaviour
+        if self.profile.flies and self.armed and self.landed:
+            self._say("GCS Failsafe - Disarming", Severity.WARNING)
+            self._disarm("Disarming motors")
+            return
+        if behaviour is Behaviour.AUTO and self.settings.gcs_failsafe.continue_auto:
+            self._say("GCS Failsafe - Continuing Auto Mode", Severity.WARNING)
+            return
+        if behaviour is Behaviour.LAND:
+            self._say("GCS Failsafe - Continuing Landing", Severity.WARNING)
+            return
+        self._say("GCS Failsafe", Severity.WARNING)
+        if action is FailsafeAction.RTL:
+            try:
+                self.return_to_launch()
+                return
+            except CommandRefused:
+                pass  # not ready for RTL (forced arming during start-up): the fallback
+            if self.profile.flies:
+                self.land()
+                return
+        if action is not FailsafeAction.NONE and self.profile.failsafe_hold_mode is not None:
+            self.set_mode(self.profile.failsafe_hold_mode)
+
+    def _check_gcs_failsafe(self) -> None:
+        if self._gcs.active or not self.armed or not self._gcs.overdue(self.elapsed_s):
+            return
+        if not self.profile.flies and self.behaviour in (Behaviour.HOLD, Behaviour.RTL):
+            return  # ArduPilot Rover: no failsafe in HOLD or RTL
+        self.gcs_failsafe(self.settings.gcs_failsafe.action)
 
     # ------------------------------------------------------------------ mission
 
@@ -362,6 +417,7 @@ class Vehicle:
         if self.dead or dt_s <= 0:
             return
         self.elapsed_s += dt_s
+        self._check_gcs_failsafe()
         before = (self.north_m, self.east_m, self.alt_m)
         moved_m = self._move(dt_s) if self.armed else 0.0
         self.velocity_ned_m_s = (

@@ -133,9 +133,10 @@ async def connect(
     signing: SigningConfig | None = None,
     settings: LinkSettings | None = None,
 ) -> VehicleLink:
-    return await VehicleLink.connect(
-        address, target_system=SYSID, signing=signing, settings=settings
-    )
+    """Our link, beating at 1 Hz of vehicle time as a ground station must under a speed-up
+    (the mission fleet's GCS failsafe counts in vehicle time)."""
+    beat = dataclasses.replace(settings or LinkSettings(), heartbeat_period_s=1.0 / SPEEDUP)
+    return await VehicleLink.connect(address, target_system=SYSID, signing=signing, settings=beat)
 
 
 @contextlib.asynccontextmanager

@@ -16,9 +16,10 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import logging
 import math
-from collections.abc import AsyncIterator, Callable, Sequence
+from collections.abc import AsyncIterator, Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any
@@ -75,6 +76,39 @@ class LinkEvent(StrEnum):
 
 
 @dataclass(frozen=True)
+class RejectedFrames:
+    """What a link received and threw away, by reason: counted, never raised."""
+
+    #: Garbage, truncated frames, bad CRCs.
+    bad_frames: int = 0
+    bad_signatures: int = 0
+    #: Well-formed frames of a message id the dialect does not know.
+    unknown_messages: int = 0
+    #: Good frames from a system id other than the vehicle's.
+    foreign_frames: int = 0
+
+    @property
+    def total(self) -> int:
+        return sum(dataclasses.astuple(self))
+
+    def __add__(self, other: RejectedFrames) -> RejectedFrames:
+        mine, theirs = dataclasses.astuple(self), dataclasses.astuple(other)
+        return RejectedFrames(*(a + b for a, b in zip(mine, theirs, strict=True)))
+
+    def report_fields(self, prefix: str = "link_") -> dict[str, int]:
+        """The counts as report keys, e.g. ``link_bad_frames``."""
+        return {f"{prefix}{k}": v for k, v in dataclasses.asdict(self).items()}
+
+
+def rejected_frames(links: Iterable[VehicleLink]) -> RejectedFrames:
+    """The rejected frames of several links, added up."""
+    total = RejectedFrames()
+    for link in links:
+        total += link.rejected
+    return total
+
+
+@dataclass(frozen=True)
 class LinkSettings:
     own_system: int = GCS_SYSTEM_ID
     own_component: int = GCS_COMPONENT_ID
@@ -108,6 +142,9 @@ class VehicleLink:
         self.telemetry = TelemetryCache(profile=profile)
         #: Every MAVLink message read from the transport (any system).
         self.messages_in = 0
+        #: Good messages from another system than the vehicle's, ignored.
+        self.foreign_frames = 0
+        transport.follow_peer = self._from_vehicle
         self._fixed_profile = profile
         self.router = MessageRouter()
         self.streams = TopicStreams()
@@ -184,6 +221,21 @@ class VehicleLink:
             raise LinkError("no vehicle heard yet: wait_heartbeat() first")
         return self._target_system, self.target_component
 
+    def _from_vehicle(self, msg: Message) -> bool:
+        """Whether ``msg`` comes from our vehicle (any system until one is known)."""
+        return self._target_system is None or msg.get_srcSystem() == self._target_system
+
+    @property
+    def rejected(self) -> RejectedFrames:
+        """Frames received and thrown away so far, by reason."""
+        stats = self.transport.stats
+        return RejectedFrames(
+            bad_frames=stats.bad_frames,
+            bad_signatures=stats.bad_signatures,
+            unknown_messages=stats.unknown_messages,
+            foreign_frames=self.foreign_frames,
+        )
+
     @property
     def is_up(self) -> bool:
         return self._up.is_set()
@@ -240,25 +292,33 @@ class VehicleLink:
 
     async def _read(self) -> None:
         async for msg in self.transport:
-            self.messages_in += 1
-            if self._target_system is None:
-                if not _is_vehicle_heartbeat(msg):
-                    continue
-                self._target_system = msg.get_srcSystem()
-                self._log = logging.LoggerAdapter(log, {"vehicle": self._target_system})
-            if msg.get_srcSystem() != self._target_system:
-                continue
-            if _is_vehicle_heartbeat(msg):
-                if self._target_component is None:
-                    self._target_component = msg.get_srcComponent()
-                if msg.get_srcComponent() == self._target_component:
-                    self._on_heartbeat()
-            update = self.telemetry.update(msg)
-            if self._fixed_profile is not None:
-                self.telemetry.profile = self._fixed_profile
-            if update is not None:
-                self.streams.publish(*update)
-            self.router.dispatch(msg)
+            try:
+                self._handle(msg)
+            except Exception:  # one odd message must not end the reader (and the link)
+                self._log.exception("cannot handle %s", msg.get_type())
+
+    def _handle(self, msg: Message) -> None:
+        """Take in one message from the transport: ours (telemetry, replies) or a stranger's."""
+        self.messages_in += 1
+        if self._target_system is None:
+            if not _is_vehicle_heartbeat(msg):
+                return
+            self._target_system = msg.get_srcSystem()
+            self._log = logging.LoggerAdapter(log, {"vehicle": self._target_system})
+        if msg.get_srcSystem() != self._target_system:
+            self.foreign_frames += 1
+            return
+        if _is_vehicle_heartbeat(msg):
+            if self._target_component is None:
+                self._target_component = msg.get_srcComponent()
+            if msg.get_srcComponent() == self._target_component:
+                self._on_heartbeat()
+        update = self.telemetry.update(msg)
+        if self._fixed_profile is not None:
+            self.telemetry.profile = self._fixed_profile
+        if update is not None:
+            self.streams.publish(*update)
+        self.router.dispatch(msg)
 
     def _on_heartbeat(self) -> None:
         self._heartbeat_seen.set()

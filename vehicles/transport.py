@@ -58,7 +58,8 @@ class MavlinkTransport:
     ``recv()`` (or ``async for``) gives decoded messages from any system on the
     endpoint; ``send(msg)`` packs with our system/component id (and signature).
     A ``udpin`` transport is silent (``send`` counts ``unsent``) until it has
-    heard someone, and then replies to the last sender.
+    heard someone, and then replies to the last sender of a good message (that
+    ``follow_peer`` accepts; garbage never moves the reply address).
     """
 
     def __init__(
@@ -83,6 +84,9 @@ class MavlinkTransport:
         self._server: asyncio.Server | None = None
         self._tasks: set[asyncio.Task[None]] = set()
         self.peer: Address | None = None
+        #: ``udpin``: only a datagram with a good message this accepts moves the reply
+        #: address (``peer``), so garbage or a stranger's frames cannot divert what we send.
+        self.follow_peer: Callable[[mavlink.MAVLink_message], bool] = _any_message
 
     # -- life cycle -----------------------------------------------------------------
 
@@ -218,8 +222,9 @@ class MavlinkTransport:
             except TransportClosed:
                 return
 
-    def _feed(self, data: bytes, *, whole_frames: bool = False) -> None:
-        """Parse ``data`` and queue every good message (called by the readers).
+    def _feed(self, data: bytes, *, whole_frames: bool = False) -> list[mavlink.MAVLink_message]:
+        """Parse ``data``, queue every good message (called by the readers) and
+        return them.
 
         ``whole_frames``: ``data`` is a datagram, which holds whole frames only,
         so a truncated frame left at its end is garbage, not the start of the next."""
@@ -230,29 +235,31 @@ class MavlinkTransport:
             log.debug("%s: unparsable data: %s", self.endpoint, exc)
             self.stats.bad_frames += 1
             self._reset_parser()
-            return
-        for msg in msgs:
-            self._accept(msg)
+            return []
+        good = [msg for msg in msgs if self._accept(msg)]
         if whole_frames and self.codec.buf_len() > 0:
             self.stats.bad_frames += 1
             self._reset_parser()
+        return good
 
-    def _accept(self, msg: mavlink.MAVLink_message) -> None:
+    def _accept(self, msg: mavlink.MAVLink_message) -> bool:
+        """Count ``msg``; queue it and say true if it is a good message."""
         if isinstance(msg, mavlink.MAVLink_bad_data):
             if "signature" in str(msg.reason).lower():
                 self.stats.bad_signatures += 1
             else:
                 self.stats.bad_frames += 1
-            return
+            return False
         if isinstance(msg, mavlink.MAVLink_unknown):
             self.stats.unknown_messages += 1
-            return
+            return False
         self.stats.frames_in += 1
         self._run_taps("in", bytes(msg.get_msgbuf()), msg)
         if self._queue.full():
             self._queue.get_nowait()
             self.stats.dropped_in += 1
         self._queue.put_nowait(msg)
+        return True
 
     def _reset_parser(self) -> None:
         self.codec.buf = bytearray()
@@ -316,10 +323,15 @@ class _DatagramProtocol(asyncio.DatagramProtocol):
         self.owner = owner
 
     def datagram_received(self, data: bytes, addr: Address) -> None:
-        if self.owner.endpoint.kind is EndpointKind.UDP_IN:
-            self.owner.peer = (addr[0], addr[1])
-        self.owner._feed(data, whole_frames=True)
+        owner = self.owner
+        good = owner._feed(data, whole_frames=True)
+        if owner.endpoint.kind is EndpointKind.UDP_IN and any(map(owner.follow_peer, good)):
+            owner.peer = (addr[0], addr[1])
 
     def error_received(self, exc: Exception) -> None:
         # ICMP port unreachable and the like: the peer is not there (yet).
         log.debug("%s: %s", self.owner.endpoint, exc)
+
+
+def _any_message(_msg: mavlink.MAVLink_message) -> bool:
+    return True

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from rich.table import Table
 
+from gcs.bench_faults import register_faults
 from gcs.bench_mavlink import register_mavlink
 from gcs.bench_perf import register_perf
 from gcs.console import output_console
@@ -93,6 +94,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     paper.set_defaults(func=run_paper)
     register_mavlink(which)
     register_perf(which)
+    register_faults(which)
 
 
 def _load(path: Path) -> Mission:

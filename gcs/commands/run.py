@@ -119,6 +119,23 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="every vehicle loses PCT %% of charge at T s of its time (repeatable)",
     )
     faults.add_argument(
+        "--sim-latency", type=float, default=0.0, metavar="S", help="latency each way (s)"
+    )
+    faults.add_argument(
+        "--sim-jitter",
+        type=float,
+        default=0.0,
+        metavar="S",
+        help="extra latency of each packet, uniform in [0, S] s (packets may overtake)",
+    )
+    faults.add_argument(
+        "--sim-die",
+        action="append",
+        default=[],
+        metavar="SYSID:T",
+        help="vehicle SYSID loses all power at T s of its time and falls silent (repeatable)",
+    )
+    faults.add_argument(
         "--sim-cut",
         action="append",
         default=[],
@@ -135,7 +152,7 @@ def _numbers(text: str, count: int, option: str) -> tuple[float, ...]:
     except ValueError:
         values = ()
     if len(values) != count:
-        shape = {"--sim-sag": "T:PCT", "--sim-cut": "SYSID:T:D"}[option]
+        shape = {"--sim-sag": "T:PCT", "--sim-cut": "SYSID:T:D", "--sim-die": "SYSID:T"}[option]
         raise UsageError(f"{option}: expected {shape}, got {text!r}")
     return values
 
@@ -151,13 +168,30 @@ def options_from(args: argparse.Namespace, mission: Mission) -> LiveOptions:
     if args.lost_after <= 0:
         raise UsageError(f"--lost-after must be positive, got {args.lost_after}")
     sags = tuple(_numbers(s, 2, "--sim-sag") for s in args.sim_sag)
+    if args.sim_latency < 0 or args.sim_jitter < 0:
+        raise UsageError("--sim-latency and --sim-jitter must not be negative")
+    sysids = {v.sysid for v in mission.fleet}
     cuts = []
     for text in args.sim_cut:
         sysid, at, duration = _numbers(text, 3, "--sim-cut")
-        if int(sysid) not in {v.sysid for v in mission.fleet}:
+        if int(sysid) not in sysids:
             raise UsageError(f"--sim-cut: no vehicle {int(sysid)} in the fleet")
         cuts.append((int(sysid), at, duration))
-    faulty = args.sim_loss or args.sim_battery_noise or sags or cuts
+    deaths = []
+    for text in args.sim_die:
+        sysid, at = _numbers(text, 2, "--sim-die")
+        if int(sysid) not in sysids:
+            raise UsageError(f"--sim-die: no vehicle {int(sysid)} in the fleet")
+        deaths.append((int(sysid), at))
+    faulty = (
+        args.sim_loss
+        or args.sim_battery_noise
+        or args.sim_latency
+        or args.sim_jitter
+        or sags
+        or cuts
+        or deaths
+    )
     if faulty and not args.sim:
         raise UsageError("--sim-* faults need --sim")
     agent = dataclasses.replace(AgentSettings(), lost_after_s=args.lost_after)
@@ -182,6 +216,9 @@ def options_from(args: argparse.Namespace, mission: Mission) -> LiveOptions:
             battery_noise=args.sim_battery_noise,
             sags=sags,  # type: ignore[arg-type]
             cuts=tuple(cuts),
+            latency_s=args.sim_latency,
+            jitter_s=args.sim_jitter,
+            deaths=tuple(deaths),
         ),
         agent=agent,
         resume=resume,

@@ -29,6 +29,30 @@ _PHASE_STYLE = {
 _LEVEL_STYLE = {Level.INFO: "dim", Level.WARNING: "yellow", Level.ERROR: "bold red"}
 
 
+#: How the display names each reason a frame was thrown away.
+_REJECTED_LABELS = (
+    ("bad_frames", "bad"),
+    ("bad_signatures", "bad signature"),
+    ("unknown_messages", "unknown id"),
+    ("foreign_frames", "foreign"),
+)
+
+
+def _rejected_caption(run: LiveRun) -> str | None:
+    """Frames each link threw away (garbage, strangers), or None while there are none."""
+    parts = []
+    for sysid, link in sorted(list(run.links.items())):  # list(): the loop may add links
+        counts = link.rejected
+        if counts.total:
+            text = ", ".join(
+                f"{getattr(counts, field)} {label}"
+                for field, label in _REJECTED_LABELS
+                if getattr(counts, field)
+            )
+            parts.append(f"vehicle {sysid}: {text}")
+    return "rejected frames: " + "; ".join(parts) if parts else None
+
+
 def _clock(seconds: float) -> str:
     m, s = divmod(int(seconds), 60)
     h, m = divmod(m, 60)
@@ -92,7 +116,14 @@ class LiveDisplay:
         run = self.run
         if run is None:
             return Text("connecting...")
-        table = Table(expand=False, title=self._title(run), title_justify="left")
+        table = Table(
+            expand=False,
+            title=self._title(run),
+            title_justify="left",
+            caption=_rejected_caption(run),
+            caption_justify="left",
+            caption_style="yellow",
+        )
         for name, justify in (
             ("vehicle", "right"),
             ("type", "left"),

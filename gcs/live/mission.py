@@ -95,6 +95,10 @@ class SimFaults:
     sags: tuple[tuple[float, float], ...] = ()
     #: Link cuts: (sysid, at s, duration s).
     cuts: tuple[tuple[int, float, float], ...] = ()
+    #: Extra latency of each packet, uniform in [0, jitter_s].
+    jitter_s: float = 0.0
+    #: Vehicles that lose all power: (sysid, at s).
+    deaths: tuple[tuple[int, float], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -172,12 +176,15 @@ def sim_configs(
             loss_to_gcs=faults.loss,
             loss_from_gcs=faults.loss,
             latency_s=faults.latency_s,
+            jitter_s=faults.jitter_s,
             cuts=cuts,
         )
+        # Power lost: the whole charge gone at once (the vehicle dies and falls silent).
+        deaths = tuple(BatterySag(at, 100.0) for s, at in faults.deaths if s == config.sysid)
         battery = dataclasses.replace(
             config.battery,
             noise_fraction=faults.battery_noise,
-            sags=tuple(BatterySag(at, pct) for at, pct in faults.sags),
+            sags=tuple(BatterySag(at, pct) for at, pct in faults.sags) + deaths,
         )
         configs.append(
             dataclasses.replace(config, battery=battery, faults=VehicleFaults(link=link))

@@ -1,0 +1,340 @@
+"""``gcs bench faults``: the fault campaign, one live mission per fault.
+
+Every row runs the real ``gcs run --sim`` in a child process (seeded, stopped
+after ``--case-limit`` wall seconds) with one fault injected into the mock
+fleet, then reads what it left: the report (coverage, vehicles lost, the
+lowest battery any vehicle reported on arrival against the reserve) and the
+MCAP log (does it rebuild the same report?). The last row kills the ground
+station with SIGKILL mid-mission: the mock fleet then runs in a process of
+its own with its GCS failsafe set to hold, and a second ground station
+resumes from the first one's log (``gcs run --resume``); the row says how
+much mission time the log had lost at the kill.
+
+A fault that takes a vehicle away for good (a cut longer than the lost-vehicle
+timeout, a vehicle dying) must end with that vehicle declared lost and the
+others covering its share: such rows expect one vehicle lost (exit status 1
+is then the right answer) and say so.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import platform
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+from rich.console import Console
+from rich.table import Table
+
+from gcs.console import output_console
+from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
+from gcs.log_reader import LogError, read_contents, read_log
+from gcs.mission import MissionError, load_mission
+from gcs.report import report_dict
+from vehicles.endpoints import free_loopback_udp_ports
+
+DEMO = Path(__file__).resolve().parent.parent / "missions" / "demo.yaml"
+#: Mission seconds into the run at which timed faults strike.
+STRIKE_S = 60.0
+#: The lost-vehicle timeout of every run (mission seconds), and the cuts around it.
+LOST_AFTER_S = 30.0
+SHORT_CUT_S = 8.0
+LONG_CUT_S = 3 * LOST_AFTER_S
+#: Real seconds the first ground station of the SIGKILL row runs before the kill.
+KILL_AFTER_S = 6.0
+
+
+@dataclass(frozen=True)
+class FaultCase:
+    name: str
+    #: Extra ``gcs run`` options that inject the fault.
+    args: tuple[str, ...] = ()
+    #: Vehicles this fault must cost (it makes losing them the right outcome).
+    expect_lost: int = 0
+    kill: bool = False
+
+
+def fault_cases(victim: int) -> list[FaultCase]:
+    """The campaign; ``victim`` is the vehicle that cut and death faults hit."""
+    at = f"{STRIKE_S:g}"
+    return [
+        FaultCase("no fault"),
+        FaultCase("10 % packet loss", ("--sim-loss", "0.1")),
+        FaultCase("20 % packet loss", ("--sim-loss", "0.2")),
+        FaultCase("40 % packet loss", ("--sim-loss", "0.4")),
+        FaultCase("latency 0.2 s + jitter 0.3 s", ("--sim-latency", "0.2", "--sim-jitter", "0.3")),
+        FaultCase(f"link cut {SHORT_CUT_S:g} s", ("--sim-cut", f"{victim}:{at}:{SHORT_CUT_S:g}")),
+        FaultCase(
+            f"link cut {LONG_CUT_S:g} s (> lost timeout)",
+            ("--sim-cut", f"{victim}:{at}:{LONG_CUT_S:g}"),
+            expect_lost=1,
+        ),
+        FaultCase("vehicle dies", ("--sim-die", f"{victim}:{at}"), expect_lost=1),
+        FaultCase(
+            "battery noise +-30 % and sags",
+            ("--sim-battery-noise", "0.3", "--sim-sag", "80:15", "--sim-sag", "200:15"),
+        ),
+        FaultCase("GCS killed (SIGKILL), resumed", kill=True),
+    ]
+
+
+def register_faults(which: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = which.add_parser(
+        "faults",
+        help="the fault campaign: loss, latency, cuts, a vehicle dying, battery, GCS killed",
+        description=__doc__.split("\n\n", 1)[1] if __doc__ else None,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--mission", type=Path, default=DEMO, help="the mission (default missions/demo.yaml)"
+    )
+    p.add_argument("--seed", type=int, default=1, help="seed of the faults and the planner")
+    p.add_argument(
+        "--speedup", type=float, default=10.0, help="the mock fleet's speed-up (default 10)"
+    )
+    p.add_argument(
+        "--case-limit",
+        type=float,
+        default=300.0,
+        metavar="S",
+        help="stop a row after S wall seconds (default 300)",
+    )
+    p.add_argument(
+        "--only", metavar="N,...", help="run only these rows (1-based numbers of the table)"
+    )
+    p.add_argument("--json", type=Path, help="also write the table to this JSON file")
+    p.set_defaults(func=run_faults)
+
+
+# -- one row -----------------------------------------------------------------------------
+
+
+def _gcs(*args: str) -> list[str]:
+    return [sys.executable, "-m", "gcs.cli", *args]
+
+
+def _run(argv: list[str], limit_s: float) -> tuple[int | None, str]:
+    """Exit status (None when over the limit) and the last line of stderr."""
+    try:
+        done = subprocess.run(argv, capture_output=True, text=True, timeout=limit_s, check=False)
+    except subprocess.TimeoutExpired:
+        return None, f"over {limit_s:g} s"
+    lines = done.stderr.strip().splitlines()
+    return done.returncode, lines[-1] if lines else ""
+
+
+def _outcome(out: Path, row: dict[str, Any]) -> dict[str, Any]:
+    """The row's figures from the report and the log a run left in ``out``."""
+    try:
+        report = json.loads((out / "report.json").read_text())
+    except (OSError, ValueError):
+        return {**row, "error": row.get("error") or "no report"}
+    reserve = report["reserve_pct"]
+    low = min((a["min_battery_pct"] for a in report["agents"]), default=100.0)
+    try:
+        logged = json.loads(json.dumps(report_dict(read_log(out / "mission.mcap"))))
+        log = "complete" if logged == report else "differs from the report"
+    except LogError as exc:
+        log = f"unreadable ({exc})"
+    return {
+        **row,
+        "coverage_pct": report["coverage_pct"],
+        "lost": report["lost_agents"],
+        "min_battery_pct": round(low, 1),
+        "below_reserve": low < reserve - 1e-6,
+        "reserve_pct": reserve,
+        "total_path_m": report["total_path_m"],
+        "log": row.get("log", log),
+    }
+
+
+def on_free_ports(mission_path: Path, folder: Path) -> Path:
+    """A copy of the mission whose vehicles use loopback ports free right now, so that
+    the campaign never fights a ground station (or a test) on the mission's own ports."""
+    mission = load_mission(mission_path)
+    raw = yaml.safe_load(mission_path.read_text())
+    raw["map"] = str((mission_path.parent / raw["map"]).resolve())
+    ports = free_loopback_udp_ports(len(mission.fleet))
+    raw["fleet"] = {
+        "vehicles": [
+            {
+                **{f.name: getattr(v, f.name) for f in dataclasses.fields(v)},
+                "type": v.type.value,
+                "sensing": v.sensing.value,
+                "connection": f"udpin:127.0.0.1:{port}",
+            }
+            for v, port in zip(mission.fleet, ports, strict=True)
+        ]
+    }
+    path = folder / "mission.yaml"
+    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    return path
+
+
+def run_case(
+    case: FaultCase, mission: Path, args: argparse.Namespace, folder: Path
+) -> dict[str, Any]:
+    common = ("--quiet", "--seed", str(args.seed), "--speedup", f"{args.speedup:g}")
+    common += ("--lost-after", f"{LOST_AFTER_S:g}")
+    row: dict[str, Any] = {"fault": case.name, "expect_lost": case.expect_lost}
+    mission = on_free_ports(mission, folder)
+    out = folder / "out"
+    t0 = time.perf_counter()
+    if case.kill:
+        row = _killed_and_resumed(mission, args, folder, common, row)
+    else:
+        code, last = _run(
+            _gcs("run", str(mission), "--sim", *common, "--out", str(out), *case.args),
+            args.case_limit,
+        )
+        row["exit"] = code
+        if code is None or code > 1:
+            row["error"] = last or f"exit {code}"
+    row["wall_s"] = round(time.perf_counter() - t0, 1)
+    return _outcome(out, row)
+
+
+def _killed_and_resumed(
+    mission: Path,
+    args: argparse.Namespace,
+    folder: Path,
+    common: tuple[str, ...],
+    row: dict[str, Any],
+) -> dict[str, Any]:
+    first, out = folder / "first", folder / "out"
+    speed = ("--speedup", f"{args.speedup:g}")
+    fleet = subprocess.Popen(
+        [sys.executable, "-m", "gcs.sitl_cli", str(mission), *speed, "--gcs-failsafe", "hold"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        gcs = subprocess.Popen(
+            _gcs("run", str(mission), *common, "--out", str(first)),
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        try:
+            gcs.wait(timeout=KILL_AFTER_S)
+            return {**row, "error": f"the first ground station ended early (exit {gcs.returncode})"}
+        except subprocess.TimeoutExpired:
+            killed_at = time.time()
+            gcs.send_signal(signal.SIGKILL)
+            gcs.wait(timeout=30)
+        row["log"] = _log_loss(first / "mission.mcap", killed_at, args.speedup)
+        code, last = _run(
+            _gcs("run", str(mission), *common, "--resume", str(first / "mission.mcap"),
+                 "--out", str(out)),
+            args.case_limit,
+        )  # fmt: skip
+        row["exit"] = code
+        if code is None or code > 1:
+            row["error"] = last or f"exit {code}"
+        return row
+    finally:
+        fleet.terminate()
+        try:
+            fleet.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            fleet.kill()
+            fleet.wait(timeout=10)
+
+
+def _log_loss(log: Path, killed_at: float, speedup: float) -> str:
+    """How much of the mission the killed ground station's log lost."""
+    try:
+        contents = read_contents(log)
+    except LogError as exc:
+        return f"unreadable ({exc})"
+    if contents.meta is None or not contents.states:
+        return "nothing readable"
+    last_t = max(s[-1].t_s for s in contents.states.values() if s)
+    lost_s = max(0.0, killed_at - (contents.meta["started_unix_s"] + last_t / speedup))
+    return f"last {lost_s:.2f} s before the kill"
+
+
+# -- the table ----------------------------------------------------------------------------
+
+
+def verdict(row: dict[str, Any]) -> str:
+    if "error" in row:
+        return "FAILED: " + row["error"]
+    if row["below_reserve"]:
+        return "FAILED: below the reserve"
+    if row["lost"] != row["expect_lost"]:
+        return f"FAILED: {row['lost']} lost"
+    if row["coverage_pct"] < 100:
+        return "FAILED: incomplete"
+    return "ok, 1 lost as it must be" if row["expect_lost"] else "ok"
+
+
+def faults_table(rows: list[dict[str, Any]], mission: str) -> Table:
+    table = Table(title=f"fault campaign, gcs run --sim on {mission}")
+    for name in ("fault", "coverage %", "lost", "min battery %", "log", "wall s", "verdict"):
+        table.add_column(name, justify="left" if name in ("fault", "log", "verdict") else "right")
+    for r in rows:
+        if "coverage_pct" not in r:
+            table.add_row(r["fault"], "", "", "", "", f"{r['wall_s']:.0f}", verdict(r))
+            continue
+        table.add_row(
+            r["fault"],
+            f"{r['coverage_pct']:.1f}",
+            str(r["lost"]),
+            f"{r['min_battery_pct']:.0f} (reserve {r['reserve_pct']:g})",
+            r["log"],
+            f"{r['wall_s']:.0f}",
+            verdict(r),
+        )
+    return table
+
+
+def _rows(only: str | None, count: int) -> list[int]:
+    if only is None:
+        return list(range(count))
+    try:
+        picked = sorted({int(x) - 1 for x in only.split(",") if x.strip()})
+    except ValueError:
+        raise UsageError(f"--only: expected row numbers like 1,3, got {only!r}") from None
+    if not picked or picked[0] < 0 or picked[-1] >= count:
+        raise UsageError(f"--only: rows are 1..{count}, got {only!r}")
+    return picked
+
+
+def run_faults(args: argparse.Namespace) -> int:
+    try:
+        mission = load_mission(args.mission)
+    except MissionError as exc:
+        raise UsageError(str(exc)) from exc
+    if not args.speedup > 0 or not args.case_limit > 0:
+        raise UsageError("--speedup and --case-limit must be positive")
+    if len(mission.fleet) < 2:
+        raise UsageError(f"{args.mission}: the campaign needs a fleet of 2 or more vehicles")
+    cases = fault_cases(victim=mission.fleet[-1].sysid)
+    console = output_console(quiet=False)
+    progress = Console(stderr=True)
+    rows = []
+    for k in _rows(args.only, len(cases)):
+        case = cases[k]
+        progress.print(f"fault {k + 1}/{len(cases)}: {case.name} ...")
+        with tempfile.TemporaryDirectory(prefix="gcs-bench-faults-") as tmp:
+            rows.append(run_case(case, args.mission, args, Path(tmp)))
+    console.print(faults_table(rows, mission.name))
+    if args.json:
+        figures = {"machine": platform.platform(), "mission": mission.name, "rows": rows}
+        try:
+            args.json.write_text(json.dumps(figures, indent=1) + "\n")
+        except OSError as exc:
+            raise UsageError(f"--json: cannot write {args.json}: {exc.strerror}") from exc
+        console.print(f"wrote {args.json}")
+    ok = all(verdict(r).startswith("ok") for r in rows)
+    return EXIT_OK if ok else EXIT_FAILED
