@@ -43,7 +43,7 @@ from gcs.report import report_dict
 from vehicles.endpoints import free_loopback_udp_ports
 
 DEMO = Path(__file__).resolve().parent.parent / "missions" / "demo.yaml"
-#: Mission seconds into the run at which timed faults strike.
+#: Mission seconds into the run at which timed faults strike (by default).
 STRIKE_S = 60.0
 #: The lost-vehicle timeout of every run (mission seconds), and the cuts around it.
 LOST_AFTER_S = 30.0
@@ -63,9 +63,9 @@ class FaultCase:
     kill: bool = False
 
 
-def fault_cases(victim: int) -> list[FaultCase]:
-    """The campaign; ``victim`` is the vehicle that cut and death faults hit."""
-    at = f"{STRIKE_S:g}"
+def fault_cases(victim: int, strike_s: float = STRIKE_S) -> list[FaultCase]:
+    """The campaign; ``victim`` is the vehicle that cut and death faults hit at ``strike_s``."""
+    at = f"{strike_s:g}"
     return [
         FaultCase("no fault"),
         FaultCase("10 % packet loss", ("--sim-loss", "0.1")),
@@ -98,6 +98,13 @@ def register_faults(which: argparse._SubParsersAction) -> None:  # type: ignore[
         "--mission", type=Path, default=DEMO, help="the mission (default missions/demo.yaml)"
     )
     p.add_argument("--seed", type=int, default=1, help="seed of the faults and the planner")
+    p.add_argument(
+        "--strike",
+        type=float,
+        default=STRIKE_S,
+        metavar="S",
+        help=f"mission seconds at which cuts and the death strike (default {STRIKE_S:g})",
+    )
     p.add_argument(
         "--speedup", type=float, default=10.0, help="the mock fleet's speed-up (default 10)"
     )
@@ -315,11 +322,11 @@ def run_faults(args: argparse.Namespace) -> int:
         mission = load_mission(args.mission)
     except MissionError as exc:
         raise UsageError(str(exc)) from exc
-    if not args.speedup > 0 or not args.case_limit > 0:
-        raise UsageError("--speedup and --case-limit must be positive")
+    if not args.speedup > 0 or not args.case_limit > 0 or not args.strike > 0:
+        raise UsageError("--speedup, --case-limit and --strike must be positive")
     if len(mission.fleet) < 2:
         raise UsageError(f"{args.mission}: the campaign needs a fleet of 2 or more vehicles")
-    cases = fault_cases(victim=mission.fleet[-1].sysid)
+    cases = fault_cases(mission.fleet[-1].sysid, args.strike)
     console = output_console(quiet=False)
     progress = Console(stderr=True)
     rows = []

@@ -284,8 +284,13 @@ class Coordinator:
         if known.shape != self.belief.shape or covered.shape != self.belief.shape:
             raise ValueError(f"restored map shape {known.shape} != {self.belief.shape}")
         belief = self.belief
-        self._load_prior(np.where(covered, int(CellState.FREE), known))
-        for r, c in zip(*np.nonzero(covered), strict=True):
+        known = np.where(covered, int(CellState.FREE), known)
+        self._load_prior(known)
+        # A covered cell was sensed from: an unknown side means that sensing did not
+        # reach the log. Such cells are left to cover again, so that someone senses there.
+        unknown = np.pad(known == CellState.UNKNOWN, 1)
+        unsensed = unknown[:-2, 1:-1] | unknown[2:, 1:-1] | unknown[1:-1, :-2] | unknown[1:-1, 2:]
+        for r, c in zip(*np.nonzero(covered & ~unsensed), strict=True):
             belief.cover((int(r), int(c)), btp.BtpStacks.POOL)
         for cell in btps:
             if belief.inside(cell) and belief.index(cell) in belief.uncovered:

@@ -22,7 +22,7 @@ def test_a_dying_vehicle_is_lost_and_the_others_finish(tmp_path: Path, capsys) -
     names = [c.name for c in fault_cases(3)]
     rows = [names.index("no fault") + 1, names.index("vehicle dies") + 1]
     code = main(
-        ["bench", "faults", "--mission", str(mission), "--speedup", "20",
+        ["bench", "faults", "--mission", str(mission), "--speedup", "20", "--strike", "15",
          "--only", ",".join(map(str, rows)), "--json", str(out)]
     )  # fmt: skip
     got = json.loads(out.read_text())["rows"]
@@ -71,7 +71,7 @@ def test_verdicts(row: dict[str, Any], expected: str) -> None:
     [
         (["--only", "0"], "--only: rows are 1..10, got '0'"),
         (["--only", "x"], "--only: expected row numbers like 1,3, got 'x'"),
-        (["--speedup", "0"], "--speedup and --case-limit must be positive"),
+        (["--speedup", "0"], "--speedup, --case-limit and --strike must be positive"),
         (["--mission", "missions/nope.yaml"], "missions/nope.yaml: cannot read file"),
     ],
 )

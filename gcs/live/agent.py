@@ -308,8 +308,27 @@ class Agent:
             compass_ranges_from_obstacles(heading, obstacles) if obstacles else {},
         )
         cell_size = self.pilot.geo.cell_size_m
-        diagonals = diagonal_evidence(heading, obstacles, cell_size) if obstacles else None
+        diagonals = None
+        if obstacles:
+            offset = self._sensor_offset(cell, pos, obstacles.time_usec // 1000)
+            diagonals = diagonal_evidence(heading, obstacles, cell_size, offset_cells=offset)
         return classify(compass, cell_size, diagonals=diagonals)
+
+    def _sensor_offset(self, cell: Cell, pos: Position, at_ms: int) -> tuple[float, float]:
+        """Where the vehicle was when it took readings at ``at_ms``, in cells east and north
+        of the centre of ``cell``: the arrival position carried on toward the centre at
+        the arrival speed, never past it (the vehicle stops there)."""
+        geo = self.pilot.geo
+        north, east = geo.geo_to_local(pos.lat_deg, pos.lon_deg)
+        centre_n, centre_e = geo.cell_centre_local(cell)
+        to_n, to_e = centre_n - north, centre_e - east
+        gap = math.hypot(to_n, to_e)
+        if gap > 1e-9:
+            dt_s = max(0.0, (at_ms - pos.time_boot_ms) / 1000.0)
+            travel = min(gap, math.hypot(pos.vn_m_s, pos.ve_m_s) * dt_s)
+            north, east = north + to_n / gap * travel, east + to_e / gap * travel
+        size = geo.cell_size_m
+        return ((east - centre_e) / size, (north - centre_n) / size)
 
     def _way_home(self, first: Cell) -> list[Cell]:
         belief = self.planner.coordinator.belief

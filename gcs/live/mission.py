@@ -412,8 +412,10 @@ async def _fly(
         prior=prior_map(mission),
     )
     resume = options.resume
+    restored = 0
     if resume is not None:
         coordinator.restore(resume.known, resume.covered, resume.btps)
+        restored = coordinator.belief.covered_count
     reachable = mission.map.reachable(mission.charger)
     record = MissionRecord(
         mission=mission.name,
@@ -451,8 +453,9 @@ async def _fly(
     mission_log.event(planner.t_s, f"mission {mission.name} starts with {len(agents)} vehicles")
     if resume is not None:
         text = (
-            f"resumed from {resume.source.name}: {resume.covered_cells} cells covered by "
-            f"{resume.last_t_s:.0f} s of the earlier run"
+            f"resumed from {resume.source.name}: {restored} of the {resume.covered_cells} cells "
+            f"it logged covered by {resume.last_t_s:.0f} s (the others are swept again, their "
+            "sensing did not reach the log)"
         )
         notify(text, Level.INFO, None)
         mission_log.event(planner.t_s, text)
@@ -501,7 +504,11 @@ async def _fly(
         extra={
             "aborted": int(interrupted),
             **(
-                {"resumed_covered_cells": resume.covered_cells, "resumed_at_s": resume.last_t_s}
+                {
+                    "resumed_logged_cells": resume.covered_cells,
+                    "resumed_covered_cells": restored,
+                    "resumed_at_s": resume.last_t_s,
+                }
                 if resume is not None
                 else {}
             ),

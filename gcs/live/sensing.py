@@ -39,6 +39,11 @@ from vehicles.telemetry import ObstacleDistances, RangeReading
 #: is forward, YAW_45 (1) ... YAW_315 (7) go clockwise in 45-degree steps.
 SECTOR_ORIENTATIONS = tuple(range(8))
 ORTHOGONAL = (Direction.N, Direction.E, Direction.S, Direction.W)
+#: A diagonal probe ray passing nearer the diagonal cell's corner than this (cells along
+#: the ray) may have been stopped by a side cell: position and range are known to a
+#: centimetre or so, and the vehicle may still be moving a little.
+CORNER_CLEARANCE_CELLS = 0.05
+
 DIAGONAL_SIDES: dict[Direction, tuple[Direction, Direction]] = {
     Direction.NE: (Direction.N, Direction.E),
     Direction.SE: (Direction.S, Direction.E),
@@ -130,30 +135,34 @@ def diagonal_evidence(
     obstacles: ObstacleDistances,
     cell_size_m: float,
     settings: SensingSettings = DEFAULT_SENSING,
+    offset_cells: tuple[float, float] = (0.0, 0.0),
 ) -> dict[Direction, CellState]:
     """What the narrow OBSTACLE_DISTANCE sectors near each diagonal say of the diagonal cell.
 
-    A ray at angle ``phi`` from one side of a quadrant enters the diagonal cell at
-    ``max(0.5/cos phi, 0.5/sin phi)`` cells and leaves it at ``min(1.5/cos phi, 1.5/sin
-    phi)``: stopping before the entry says nothing (a side wall), stopping inside says
-    wall, going past the exit says free. Any ray that says wall wins.
+    Each ray is followed from where the sensor is, ``offset_cells`` (east, north) from
+    the cell's centre (a vehicle senses before it has quite stopped): stopping before it
+    enters the diagonal cell says nothing (a side wall), stopping inside says wall,
+    going past the far side says free. Any ray that says wall wins. From the centre a
+    ray at ``phi`` from a side axis enters at ``max(0.5/cos phi, 0.5/sin phi)`` cells
+    and leaves at ``min(1.5/cos phi, 1.5/sin phi)``; a few hundredths of a cell off
+    the centre already move those points enough to turn a side wall into a diagonal one.
     """
     low, high = settings.diagonal_probe_deg
     found: dict[Direction, CellState] = {}
     if obstacles.increment_deg <= 0:
         return found
+    margin = 0.02 * cell_size_m
     for i, distance in enumerate(obstacles.distances_m):
         if distance is None:
             continue
         bearing = (heading_deg + obstacles.angle_offset_deg + i * obstacles.increment_deg) % 360
         for diagonal in DIAGONAL_SIDES:
-            off = _angle_diff(diagonal.heading_deg, bearing)
-            if not low <= off <= high:
+            if not low <= _angle_diff(diagonal.heading_deg, bearing) <= high:
                 continue
-            phi = math.radians(45.0 - off)  # angle from the nearer side axis
-            enter = max(0.5 / math.cos(phi), 0.5 / math.sin(phi)) * cell_size_m
-            leave = min(1.5 / math.cos(phi), 1.5 / math.sin(phi)) * cell_size_m
-            margin = 0.02 * cell_size_m
+            crossing = _crossing(offset_cells, bearing, diagonal)
+            if crossing is None or crossing[2] < CORNER_CLEARANCE_CELLS:
+                continue  # too near the corner to tell the diagonal cell from a side one
+            enter, leave = crossing[0] * cell_size_m, crossing[1] * cell_size_m
             if distance < enter - margin:
                 continue  # stopped by a side wall before the diagonal cell
             if distance < leave - margin and distance < obstacles.max_m - 1e-6:
@@ -161,6 +170,34 @@ def diagonal_evidence(
             elif distance >= leave - margin:
                 found.setdefault(diagonal, CellState.FREE)
     return found
+
+
+def _crossing(
+    start: tuple[float, float], bearing_deg: float, diagonal: Direction
+) -> tuple[float, float, float] | None:
+    """Where a ray from ``start`` (cells east, north of the centre) along a compass
+    bearing enters and leaves the ``diagonal`` neighbour cell, and how far (along the
+    ray) from the cell's near corner it passes, in cells; None if it misses the cell."""
+    theta = math.radians(bearing_deg)
+    enter, leave = 0.0, math.inf
+    near_lines: list[float] = []
+    # Direction values are (rows south, cols east): the cell spans 0.5..1.5 on each axis
+    # on the side the diagonal points to.
+    for position, step, side in (
+        (start[0], math.sin(theta), diagonal.value[1]),
+        (start[1], math.cos(theta), -diagonal.value[0]),
+    ):
+        near, far = (0.5, 1.5) if side > 0 else (-1.5, -0.5)
+        if abs(step) < 1e-12:
+            if not near <= position <= far:
+                return None
+            continue
+        t1, t2 = (near - position) / step, (far - position) / step
+        enter, leave = max(enter, min(t1, t2)), min(leave, max(t1, t2))
+        near_lines.append(min(t1, t2))
+    if enter >= leave or len(near_lines) < 2:
+        return None
+    return enter, leave, abs(near_lines[0] - near_lines[1])
 
 
 def classify(
