@@ -23,8 +23,8 @@ from gcs.mission import load_mission
 from planner.coordinator import ActionKind, Coordinator
 from planner.grid import Cell
 from planner.settings import AgentSpec, PlannerSettings
-from sitl_mock.lockstep import Body, LockstepWorld
 from sitl_mock.gridmap import GridMap
+from sitl_mock.lockstep import Body, LockstepWorld
 from sitl_mock.mapgen import caves, open_field, rooms
 from tests.test_live_mission import write_mission
 
