@@ -34,11 +34,12 @@ from gcs.mcap_log import (
     META_TOPIC,
     RESULT_TOPIC,
     codes_from_grid,
+    readings_from_code,
     result_from_json,
 )
 from gcs.result import AgentTrace, BtpRecord, RunResult
 from planner.coordinator import AgentMode, EventKind
-from planner.grid import Cell, CellState
+from planner.grid import Cell, CellState, Direction
 
 #: Modes whose moves count as driving home after coverage, not as coverage path.
 HOMING_MODES = frozenset({AgentMode.HOMING.value, AgentMode.DONE.value})
@@ -54,6 +55,8 @@ class VehicleState:
     cell: Cell
     battery_pct: float
     mode: str
+    #: What the vehicle sensed on arrival there (live missions), if anything.
+    sensed: dict[Direction, CellState] | None = None
 
 
 @dataclass
@@ -147,6 +150,7 @@ def _take(contents: LogContents, channel: Channel, message: Message) -> None:
             (int(data["row"]), int(data["col"])),
             data["battery_pct"],
             data["mode"],
+            readings_from_code(data["sensed"]) if "sensed" in data else None,
         )
         contents.states.setdefault(int(data["sysid"]), []).append(state)
     elif topic == MAP_TOPIC:
@@ -243,7 +247,8 @@ def _event_counts(contents: LogContents) -> dict[tuple[str, int | None], int]:
 def final_map(
     contents: LogContents, shape: tuple[int, int], states: dict[int, list[VehicleState]]
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The last logged map, with every cell a vehicle stood on since marked free and covered."""
+    """The last logged map, with every cell a vehicle stood on since marked free and covered,
+    and what the vehicles sensed there."""
     belief = np.zeros(shape, dtype=np.int8)
     covered = np.zeros(shape, dtype=bool)
     if contents.last_map is not None:
@@ -251,10 +256,16 @@ def final_map(
         if codes.shape == shape:
             covered = codes == GRID_COVERED
             belief = np.where(covered, GRID_FREE, codes).astype(np.int8)
+    rows, cols = shape
     for track in states.values():
         for state in track:
             belief[state.cell] = CellState.FREE
             covered[state.cell] = True
+            for direction, seen in (state.sensed or {}).items():
+                r, c = state.cell[0] + direction.dr, state.cell[1] + direction.dc
+                # The planner keeps the first thing it was told of a cell: so do we.
+                if 0 <= r < rows and 0 <= c < cols and belief[r, c] == CellState.UNKNOWN:
+                    belief[r, c] = seen
     return belief, covered
 
 

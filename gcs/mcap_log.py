@@ -25,7 +25,7 @@ import base64
 import json
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -34,7 +34,7 @@ import numpy as np
 from mcap.writer import CompressionType, Writer
 
 from gcs.result import AgentTrace, BtpRecord, RunResult
-from planner.grid import Cell, CellState
+from planner.grid import Cell, CellState, Direction
 from vehicles.geo import GeoFrame
 
 PROFILE = ""
@@ -220,6 +220,7 @@ SCHEMAS: dict[str, dict[str, Any]] = {
         row=_int(),
         col=_int(),
         cell=_arr(_int()),
+        sensed=_str(),
     ),
     META_SCHEMA: _obj(
         META_SCHEMA,
@@ -360,6 +361,17 @@ def _entity(t_s: float, entity_id: str, **primitives: Any) -> dict[str, Any]:
         entity[kind] = primitives.pop(kind, [])
     entity["models"] = []
     return entity
+
+
+def sensed_code(readings: Mapping[Direction, CellState]) -> str:
+    """The 8 readings of an arrival as 8 digits (``CellState`` values) in ``Direction``
+    order, so that a restarted ground station knows what was sensed up to the end of
+    the log (``gcs run --resume``), not only up to the last map."""
+    return "".join(str(int(readings.get(d, CellState.UNKNOWN))) for d in Direction)
+
+
+def readings_from_code(code: str) -> dict[Direction, CellState]:
+    return {d: CellState(int(x)) for d, x in zip(Direction, code, strict=True)}
 
 
 def grid_codes(belief: np.ndarray, covered: np.ndarray) -> np.ndarray:
@@ -526,13 +538,16 @@ class McapMissionLog:
         lat_deg: float | None = None,
         lon_deg: float | None = None,
         heading_deg: float | None = None,
+        readings: Mapping[Direction, CellState] | None = None,
     ) -> None:
         if self._closed:
             return
         row, col = int(cell[0]), int(cell[1])
+        sensed = f',"sensed":"{sensed_code(readings)}"' if readings else ""
         state = (
             f'{{"t_s":{float(t_s)!r},"sysid":{int(sysid)},"battery_pct":{float(battery_pct)!r},'
-            f'"mode":{json.dumps(str(mode))},"row":{row},"col":{col},"cell":[{row},{col}]}}'
+            f'"mode":{json.dumps(str(mode))},"row":{row},"col":{col},"cell":[{row},{col}]'
+            f"{sensed}}}"
         )
         self._write(f"/vehicle/{sysid}/battery", BATTERY_SCHEMA, t_s, state.encode())
         vehicle = self._vehicle(sysid)

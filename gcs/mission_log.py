@@ -7,13 +7,13 @@ this interface, so that a log looks the same whichever produced it.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Protocol
 
 import numpy as np
 
 from gcs.result import RunResult
-from planner.grid import Cell
+from planner.grid import Cell, CellState, Direction
 
 
 class MissionLog(Protocol):
@@ -30,8 +30,10 @@ class MissionLog(Protocol):
         lat_deg: float | None = None,
         lon_deg: float | None = None,
         heading_deg: float | None = None,
+        readings: Mapping[Direction, CellState] | None = None,
     ) -> None:
-        """Where a vehicle is and how it is doing (after every move, and on changes)."""
+        """Where a vehicle is and how it is doing (after every move, and on changes), and
+        what it sensed there."""
 
     def coverage(self, t_s: float, belief: np.ndarray, covered: np.ndarray) -> None:
         """The planner's map: ``CellState`` values, and which cells are covered."""
@@ -65,6 +67,7 @@ class NullLog:
         lat_deg: float | None = None,
         lon_deg: float | None = None,
         heading_deg: float | None = None,
+        readings: Mapping[Direction, CellState] | None = None,
     ) -> None:
         pass
 

@@ -425,6 +425,8 @@ async def _fly(
         reserve_pct=mission.planner.reserve_pct,
         free_cells=int(reachable.sum()),
         reachable=reachable,
+        covered_before=None if resume is None else resume.covered,
+        covered_at_start=restored,
     )
     for v in mission.fleet:
         position = links[v.sysid].telemetry.position
@@ -507,6 +509,7 @@ async def _fly(
                 {
                     "resumed_logged_cells": resume.covered_cells,
                     "resumed_covered_cells": restored,
+                    "resumed_swept_again_cells": len(record.swept_again),
                     "resumed_at_s": resume.last_t_s,
                 }
                 if resume is not None

@@ -48,6 +48,12 @@ class MissionRecord:
     arrivals: int = 0
     coverage_arrivals: int | None = None
     coverage_s: float | None = None
+    #: A resumed mission: the cells its log recorded as covered, and those of them this
+    #: run covered again (not those it only went over on its way back to work).
+    covered_before: np.ndarray | None = None
+    swept_again: set[Cell] = field(default_factory=set)
+    #: Cells the planner had covered before the first arrival (restored from a log).
+    covered_at_start: int = 0
 
     def add_agent(self, agent: int, battery_pct: float, cell: Cell | None = None) -> None:
         """An agent starting on ``cell`` (the charger unless a mission is resumed)."""
@@ -55,6 +61,10 @@ class MissionRecord:
         self.agents[agent] = AgentLog(track=[start], battery_pct=[battery_pct])
 
     def arrived(self, agent: int, cell: Cell, battery_pct: float, covered: int) -> None:
+        before = self.covered_series[-1] if self.covered_series else self.covered_at_start
+        newly = covered > before
+        if newly and self.covered_before is not None and self.covered_before[cell]:
+            self.swept_again.add(cell)
         log = self.agents[agent]
         moves = manhattan(log.track[-1], cell)
         log.moves += moves

@@ -164,7 +164,15 @@ class SharedPlanner:
         self.record.arrived(agent, cell, battery_pct, self.coordinator.belief.covered_count)
         lat, lon, heading = lat_lon_heading or (None, None, None)
         self.log.agent_state(
-            self.t_s, agent, cell, battery_pct, str(self.coordinator.mode(agent)), lat, lon, heading
+            self.t_s,
+            agent,
+            cell,
+            battery_pct,
+            str(self.coordinator.mode(agent)),
+            lat,
+            lon,
+            heading,
+            readings,
         )
         self._after(agent, before, force_coverage=False)
         self.changed.notify()
