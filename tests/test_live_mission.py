@@ -287,6 +287,22 @@ async def test_range_vehicle_without_ranges_is_refused(
     assert not fleet.vehicles[1].armed
 
 
+def test_listening_beyond_loopback_needs_to_be_asked_for(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (port,) = free_loopback_udp_ports(1)
+    mission = write_mission(tmp_path, SMALL, [{"connection": f"udpin:0.0.0.0:{port}"}])
+    assert main(["run", str(mission), "--quiet", "--heartbeat-timeout", "0.2"]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"gcs run: vehicle 1: bad endpoint 'udpin:0.0.0.0:{port}': host 0.0.0.0 is not "
+        "loopback (--allow-remote allows it)"
+    )
+    # Asked for: it listens (and, with no vehicle there, hears nothing).
+    args = ["run", str(mission), "--quiet", "--heartbeat-timeout", "0.2", "--allow-remote"]
+    assert main(args) == 1
+    assert "no heartbeat from system 1 within 0.2 s" in capsys.readouterr().err
+
+
 DEMO = Path(__file__).resolve().parents[1] / "missions" / "demo.yaml"
 
 

@@ -79,7 +79,7 @@ def parse_endpoint(text: str, *, allow_remote: bool = False) -> Endpoint:
         raise EndpointError(text, f"port {port} out of range 1..65535")
     endpoint = Endpoint(kind, host, port)
     if not allow_remote and not endpoint.is_loopback:
-        raise EndpointError(text, f"host {host} is not loopback (allow remote hosts explicitly)")
+        raise EndpointError(text, f"host {host} is not loopback (--allow-remote allows it)")
     return endpoint
 
 

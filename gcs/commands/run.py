@@ -66,6 +66,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     p.add_argument("--quiet", action="store_true", help="no live display; print only errors")
     p.add_argument(
+        "--allow-remote",
+        action="store_true",
+        help="allow vehicle connections to other hosts, or listening on every interface "
+        "(udpin:0.0.0.0:P); loopback only by default",
+    )
+    p.add_argument(
         "--resume",
         type=Path,
         metavar="LOG.mcap",
@@ -223,6 +229,7 @@ def options_from(args: argparse.Namespace, mission: Mission) -> LiveOptions:
         agent=agent,
         resume=resume,
         keys=keys_from(args, mission),
+        allow_remote=args.allow_remote,
     )
 
 

@@ -45,7 +45,7 @@ from planner.coordinator import Action, ActionKind, AgentMode
 from planner.grid import Cell, CellState, Direction, manhattan
 from planner.paths import path_to_charger
 from sitl_mock.gridmap import GridMap
-from vehicles.errors import LinkError
+from vehicles.errors import LinkError, MissionError
 from vehicles.link import LinkEvent, VehicleLink
 from vehicles.telemetry import Battery, Position, Topic
 
@@ -102,6 +102,8 @@ class Agent:
         self._odometer_m = 0.0
         self._estimator_odometer_m = 0.0
         self._lost_reason: str | None = None
+        #: The way home failed to upload on this trip: step it instead.
+        self._step_home = False
         self._helpers: list[asyncio.Task[None]] = []
 
     @property
@@ -182,13 +184,26 @@ class Agent:
         if action.kind == ActionKind.MOVE:
             assert action.to is not None
             mode = self.planner.mode(self.id)
-            if self.settings.auto_return and mode in (AgentMode.RETURN, AgentMode.HOMING):
+            if (
+                self.settings.auto_return
+                and mode in (AgentMode.RETURN, AgentMode.HOMING)
+                and not self._step_home
+            ):
                 cells = self._way_home(action.to)
                 if len(cells) >= self.settings.min_auto_cells:
-                    return await self._fly_home(cells)
+                    try:
+                        return await self._fly_home(cells)
+                    except MissionError as exc:
+                        # A link too lossy for the upload: step home in GUIDED this time
+                        # rather than try again while the battery runs down.
+                        self._tell(f"steps home in GUIDED: the way home did not upload ({exc})")
+                        self._step_home = True
+                        await self._resync()
+                        return None
             await self._step(action.to)
             return None
         if action.kind == ActionKind.CHARGE:
+            self._step_home = False
             await self._charge()
             return None
         await self._wait()

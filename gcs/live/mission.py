@@ -122,6 +122,8 @@ class LiveOptions:
     #: Carry on from an earlier run's log: its map, coverage and BTPs, the vehicles
     #: taken over wherever they are (``gcs run --resume``).
     resume: ResumePoint | None = None
+    #: Connections to hosts other than this machine (loopback only by default).
+    allow_remote: bool = False
     #: MAVLink 2 signing keys (``gcs run --keys``): a vehicle with a key is signed both
     #: ways and its unsigned frames are refused; with ``sim`` its mock does the same.
     keys: KeyFile | None = field(default=None, repr=False)
@@ -146,16 +148,23 @@ class LiveRun:
         return 0.0 if self.started_at is None else self.clock.now() - self.started_at
 
 
+#: Our heartbeat period, mission seconds.
+HEARTBEAT_PERIOD_S = 0.5
+
+
 def link_settings(options: LiveOptions, clock: Clock) -> LinkSettings:
-    """Link timing: heartbeat loss in mission time; our heartbeat at 1 Hz of mission
-    time (a vehicle's GCS failsafe counts in its own time: 1 Hz of real time would trip
-    it under a speed-up), at most 50 Hz; on loopback with the mock, short command and
-    mission timeouts (a lost packet must not cost minutes of mission time)."""
+    """Link timing: heartbeat loss in mission time; our heartbeat at 2 Hz of mission
+    time (a vehicle's GCS failsafe counts in its own time: a real-time rate would trip
+    it under a speed-up; twice the usual 1 Hz, so that a lossy link does not lose five
+    seconds of them in a row and trip it), at most 50 Hz; on loopback with the mock,
+    short command and mission timeouts (a lost packet must not cost minutes of mission
+    time)."""
     lost_real = max(0.5, clock.to_real(options.link_lost_after_s))
+    beat_real = min(HEARTBEAT_PERIOD_S, max(0.02, clock.to_real(HEARTBEAT_PERIOD_S)))
     if not options.sim and options.speedup <= 1.0:
-        return LinkSettings(link_lost_after_s=lost_real)
+        return LinkSettings(heartbeat_period_s=beat_real, link_lost_after_s=lost_real)
     return LinkSettings(
-        heartbeat_period_s=min(1.0, max(0.02, clock.to_real(1.0))),
+        heartbeat_period_s=beat_real,
         link_lost_after_s=lost_real,
         not_ready_retry_s=0.2,
         commands=CommandSettings(timeout_s=0.25, retries=6, in_progress_timeout_s=5.0),
@@ -218,6 +227,7 @@ async def run_live(
                     target_system=spec.sysid,
                     settings=settings,
                     signing=None if options.keys is None else options.keys.signing(spec.sysid),
+                    allow_remote=options.allow_remote,
                 )
             except LinkError as exc:
                 raise MissionRefused(f"vehicle {spec.sysid}: {exc}", EXIT_BAD_INPUT) from exc

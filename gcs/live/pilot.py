@@ -32,6 +32,9 @@ from vehicles.mission_items import MissionItem, same_items
 from vehicles.modes import FlightMode, VehicleKind
 from vehicles.telemetry import ObstacleDistances, Position, RangeReading, Topic
 
+#: A copter this high above home has left the ground (metres).
+CLIMBING_M = 0.1
+
 
 @dataclass(frozen=True)
 class PilotSettings:
@@ -46,6 +49,9 @@ class PilotSettings:
     move_time_factor: float = 3.0
     move_slack_s: float = 3.0
     move_attempts: int = 4
+    #: A GUIDED target is sent again this often until the vehicle is there: it has no
+    #: acknowledgement, and a lost one would otherwise cost a whole move timeout.
+    target_resend_s: float = 1.0
     #: How long to wait for range readings taken after arrival.
     sensing_timeout_s: float = 3.0
     #: Take-off, landing, mode changes that show in telemetry.
@@ -152,7 +158,14 @@ class Pilot:
                     await self.link.wait_for(Topic.STATUSTEXT, lambda _t: True, self.real_s(1.0))
 
     async def underway(self) -> None:
-        """Ready to take a GUIDED target: GUIDED, armed and, for a copter, at cruise height."""
+        """Ready to take a GUIDED target: GUIDED, armed and, for a copter, at cruise height.
+
+        Nothing is sent when the telemetry already shows it so (every command costs a
+        round trip, many on a lossy link); should the mode have changed since the last
+        heartbeat, ``goto`` finds out when the vehicle does not come and sets it again."""
+        ready = self.flight_mode == FlightMode.GUIDED and self.armed
+        if ready and (not self.flies or self.airborne()):
+            return
         if self.flies and self.airborne():
             await self.set_mode(FlightMode.GUIDED)
             return
@@ -165,7 +178,13 @@ class Pilot:
             try:
                 await self.link.takeoff(self.settings.cruise_alt_m)
             except CommandDenied:
-                continue  # disarmed itself before the take-off came (lost packet): again
+                # Refused: either it disarmed itself before the take-off came (a lost
+                # packet), or an earlier take-off got through and only its ACK was lost.
+                with contextlib.suppress(TimeoutError):
+                    await self.wait_position(lambda p: p.alt_rel_m > CLIMBING_M, 2.0)
+                pos = self.position
+                if pos is None or pos.alt_rel_m <= CLIMBING_M:
+                    continue
             await self.wait_position(
                 lambda p: p.alt_rel_m >= 0.9 * self.settings.cruise_alt_m,
                 self.settings.manoeuvre_timeout_s,
@@ -182,19 +201,24 @@ class Pilot:
     async def goto(self, cell: Cell) -> Position:
         """Fly to the centre of ``cell`` in GUIDED and return the position on arrival.
 
-        The target is sent again when the vehicle is not there in time (the message may
-        have been lost); ``TimeoutError`` after every attempt."""
+        The target is sent again every ``target_resend_s`` until the vehicle is there (the
+        message may have been lost), and GUIDED set again after a move's time without
+        arriving; ``TimeoutError`` after every attempt."""
         lat, lon = self.geo.cell_centre(cell)
         alt = self.settings.cruise_alt_m if self.flies else 0.0
         pos = self.position
         distance = self.geo.cell_size_m if pos is None else self.offset_m(pos, cell)
         timeout = self.move_time_s(distance)
         for _ in range(self.settings.move_attempts):
-            await self.link.goto(lat, lon, alt)
-            with contextlib.suppress(TimeoutError):
-                return await self.wait_position(lambda p: self.at(p, cell), timeout)
+            left = timeout
+            while left > 0:
+                await self.link.goto(lat, lon, alt)
+                wait = min(self.settings.target_resend_s, left)
+                with contextlib.suppress(TimeoutError):
+                    return await self.wait_position(lambda p: self.at(p, cell), wait)
+                left -= wait
             await self.set_mode(FlightMode.GUIDED)
-        raise TimeoutError(f"not at cell {cell} after {self.settings.move_attempts} targets")
+        raise TimeoutError(f"not at cell {cell} after {self.settings.move_attempts} moves")
 
     async def stop_here(self) -> Position:
         """Stop (GUIDED with no target), then settle on the centre of the cell it is in."""
@@ -232,12 +256,11 @@ class Pilot:
 
         def complete(_update: object = None) -> bool:
             ranges, obstacles = fresh()
-            # Both kinds when the vehicle sends both (the narrow sectors settle diagonals).
-            ranges_done = len(ranges) == len(SECTOR_ORIENTATIONS) or not has_ranges
-            obstacles_done = obstacles is not None or not has_obstacles
-            if not (has_ranges or has_obstacles):
-                return len(ranges) == len(SECTOR_ORIENTATIONS) or obstacles is not None
-            return ranges_done and obstacles_done
+            # One OBSTACLE_DISTANCE says all there is to say (every direction, and the
+            # narrow sectors that settle diagonals); else all eight DISTANCE_SENSORs.
+            if obstacles is not None:
+                return True
+            return len(ranges) == len(SECTOR_ORIENTATIONS) and not has_obstacles
 
         if complete():
             return fresh()
