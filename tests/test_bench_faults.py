@@ -47,7 +47,7 @@ def test_the_campaign_copies_the_mission_onto_free_ports(tmp_path: Path) -> None
 
 def _row(**changes: Any) -> dict[str, Any]:
     row = {"coverage_pct": 100.0, "lost": 0, "expect_lost": 0, "below_reserve": False}
-    return {**row, **changes}
+    return {"reserve_eaten_pct": 0.0, "sag_pct": 0.0, **row, **changes}
 
 
 @pytest.mark.parametrize(
@@ -58,7 +58,15 @@ def _row(**changes: Any) -> dict[str, Any]:
         (_row(lost=1), "FAILED: 1 lost"),
         (_row(lost=0, expect_lost=1), "FAILED: 0 lost"),
         (_row(coverage_pct=99.5), "FAILED: incomplete"),
-        (_row(below_reserve=True), "FAILED: below the reserve"),
+        (_row(below_reserve=True, reserve_eaten_pct=2.0), "FAILED: below the reserve"),
+        (
+            _row(below_reserve=True, reserve_eaten_pct=3.0, sag_pct=15.0),
+            "ok, a sag ate 3 % of the reserve",
+        ),
+        (
+            _row(below_reserve=True, reserve_eaten_pct=16.0, sag_pct=15.0),
+            "FAILED: below the reserve",
+        ),
         (_row(error="over 5 s"), "FAILED: over 5 s"),
     ],
 )

@@ -169,7 +169,7 @@ def link_settings(options: LiveOptions, clock: Clock) -> LinkSettings:
         not_ready_retry_s=0.2,
         commands=CommandSettings(timeout_s=0.25, retries=6, in_progress_timeout_s=5.0),
         mission=MissionSettings(
-            timeout_s=0.4, item_timeout_s=0.15, retries=8, no_space_retry_s=0.5
+            timeout_s=0.4, item_timeout_s=0.15, retries=16, no_space_retry_s=0.5
         ),
     )
 

@@ -25,7 +25,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from gcs.live.sensing import SECTOR_ORIENTATIONS
 from planner.grid import Cell
 from vehicles.clock import Clock
-from vehicles.errors import CommandDenied, LinkError
+from vehicles.errors import CommandDenied, LinkError, MissionTimeout
 from vehicles.geo import GeoFrame
 from vehicles.link import VehicleLink
 from vehicles.mission_items import MissionItem, same_items
@@ -59,6 +59,8 @@ class PilotSettings:
     #: Pause at every waypoint of a flight home (AUTO): the window in which the ground
     #: station can stop the vehicle if the planner does not grant the next cell.
     waypoint_hold_s: float = 0.5
+    #: Longest a flight home may take to upload (the vehicle waits meanwhile).
+    upload_budget_s: float = 10.0
     #: Read the mission back after uploading a flight home (the final ACK is always checked).
     verify_by_download: bool = False
     #: Retries of operations refused while the vehicle is not ready (pre-arm checks).
@@ -320,7 +322,14 @@ class Pilot:
         The upload counts only when the vehicle accepted it (final MISSION_ACK), and with
         ``verify_by_download`` only when it reads back the same."""
         items = self.route_items(cells, land)
-        await self.link.upload_mission(items)
+        budget_s = self.settings.upload_budget_s
+        try:
+            async with asyncio.timeout(self.real_s(budget_s)):
+                await self.link.upload_mission(items)
+        except TimeoutError:
+            # Hovering while a lossy link crawls through the items costs battery the
+            # return was not budgeted for: better to step home at once.
+            raise MissionTimeout("upload", f"still going after {budget_s:g} s") from None
         if self.settings.verify_by_download:
             back = await self.link.download_mission()
             if not same_items(back[1:], items[1:]):
