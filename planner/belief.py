@@ -132,6 +132,22 @@ class MapBelief:
         if self.state[i] == _UNKNOWN:
             self._set_free(i)
 
+    def block(self, i: int) -> None:
+        """A known free cell is impassable for good (a lost vehicle stands in it): an
+        obstacle from now on. The distances home are computed again from scratch (the
+        field only ever shrinks otherwise); cells beyond it may become unreachable."""
+        if self.state[i] != _FREE or i == self.charger_index:
+            return
+        self.state[i] = _OBSTACLE
+        self.free_count -= 1
+        self.uncovered.discard(i)
+        self.uncovered_mask[i] = 0
+        dist = self.charger_dist
+        for k in range(len(dist)):  # in place: compiled searches hold views of it
+            dist[k] = UNREACHED
+        dist[self.charger_index] = 0
+        self._relax_from(self.charger_index)
+
     def _set_free(self, i: int) -> None:
         self.state[i] = _FREE
         self.free_count += 1

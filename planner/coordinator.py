@@ -171,6 +171,8 @@ class Coordinator:
         self.btps_detected = 0
         self.safety_net_fires = 0
         self._best_cost: float | None = None  # cache of _best_move_cost()
+        #: Once a lost agent blocks cells: what the charger may still reach (``_in_range``).
+        self._open: bytearray | None = None
 
     # -- queries ------------------------------------------------------------
 
@@ -272,9 +274,33 @@ class Coordinator:
         a.path.clear()
         self.stacks.release(a.id)
         self._drop_claim(a)
+        # Where it stands (or, between two cells, may stand) nobody passes again: a
+        # way through it would be waited on for ever.
+        for i in (a.index, a.trailing, a.pending):
+            if i is not None:
+                self.belief.block(i)
         if a.pending is not None:
             self._release(a.pending, a.id)
+        for other in self._agents.values():
+            other.path.clear()
+        self._open = self._open_from_charger()
         self._events.append(PlannerEvent(EventKind.LOST, a.id, self.belief.cell(a.index)))
+
+    def _open_from_charger(self) -> bytearray:
+        """Cells the charger may still reach through free or unknown cells (a flood)."""
+        state, steps = self.belief.state, self.belief.steps
+        start = self.belief.charger_index
+        seen = bytearray(len(state))
+        seen[start] = 1
+        queue = [start]
+        while queue:
+            u = queue.pop()
+            for s in steps:
+                v = u + s
+                if not seen[v] and state[v] != _OBSTACLE:
+                    seen[v] = 1
+                    queue.append(v)
+        return seen
 
     def restore(self, known: np.ndarray, covered: np.ndarray, btps: Iterable[Cell]) -> None:
         """Carry on where an earlier run of the same mission stopped (a ground station
@@ -570,7 +596,9 @@ class Coordinator:
         """Can a fully charged agent go to ``index`` and come back (for some agent)?"""
         home = self.belief.charger_dist[index]
         if home >= UNREACHED:
-            return True  # not connected to what we know yet: cannot judge, keep it
+            # Not connected to what we know yet: keep it, unless walls and lost
+            # vehicles cut it off from the charger even through unknown cells.
+            return self._open is None or bool(self._open[index])
         return 2 * home * self._best_move_cost() <= self._range_budget_pct
 
     def _go_charge(self, a: _Agent) -> Action:

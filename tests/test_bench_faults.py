@@ -11,19 +11,23 @@ import pytest
 from gcs.bench_faults import fault_cases, on_free_ports, verdict
 from gcs.cli import main
 from gcs.mission import load_mission
-from tests.test_live_mission import MID, write_mission
+from tests.test_live_mission import write_mission
 
 pytestmark = pytest.mark.timeout(300)
 
 
+#: An open room: a vehicle dying anywhere in it cuts nothing off.
+ROOM = "\n".join(["############", *["#..........#"] * 5, "#....C.....#", "############"]) + "\n"
+
+
 def test_a_dying_vehicle_is_lost_and_the_others_finish(tmp_path: Path, capsys) -> None:
-    mission = write_mission(tmp_path, MID, [{"type": "rover"}] * 3, energy=0.5)
+    mission = write_mission(tmp_path, ROOM, [{"type": "rover"}] * 3, energy=0.5)
     out = tmp_path / "faults.json"
     names = [c.name for c in fault_cases(3)]
     rows = [names.index("no fault") + 1, names.index("vehicle dies") + 1]
     code = main(
         ["bench", "faults", "--mission", str(mission), "--speedup", "20", "--strike", "15",
-         "--only", ",".join(map(str, rows)), "--json", str(out)]
+         "--only", ",".join(map(str, rows)), "--case-limit", "120", "--json", str(out)]
     )  # fmt: skip
     got = json.loads(out.read_text())["rows"]
     assert code == 0, got

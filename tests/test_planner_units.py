@@ -301,3 +301,32 @@ def test_cells_back_in_range_after_a_better_estimate_are_covered() -> None:
     run(5.0)
     assert coordinator.finished and not coordinator.out_of_range_cells()
     assert coordinator.belief.covered_count == int((~grid.obstacle).sum())
+
+
+def test_a_lost_agent_blocks_its_cell_and_what_lies_behind_it() -> None:
+    """A lost vehicle in a one-cell door: nobody waits on it for ever; the room behind
+    is out of reach (reported, not waited for) and the others finish."""
+    from planner.coordinator import ActionKind, AgentMode, Coordinator
+    from planner.grid import CellState
+    from planner.settings import AgentSpec, PlannerSettings
+
+    rows = ["#######", "#..#..#", "#.....#", "###C###"]
+    known = np.array(
+        [[CellState.OBSTACLE if ch == "#" else CellState.FREE for ch in r] for r in rows],
+        dtype=np.int8,
+    )
+    agents = [AgentSpec(1, 0.0), AgentSpec(2, 0.0)]
+    c = Coordinator((4, 7), (3, 3), agents, PlannerSettings(), prior=known)
+    c.observe(1, (3, 3), {}, 100.0)
+    c.observe(2, (3, 3), {}, 100.0)
+    c.observe(1, (2, 3), {}, 100.0)  # agent 1 stands in the door (2, 3)...
+    c.mark_lost(1)  # ...and is lost there
+    assert c.belief.state_of((2, 3)) == CellState.OBSTACLE
+    assert c.belief.distance_to_charger((2, 2)) >= 1 << 30
+    for _ in range(100):
+        if c.mode(2) == AgentMode.DONE:
+            break
+        action = c.decide(2)
+        assert action.kind != ActionKind.MOVE, "nothing is reachable past the lost agent"
+    assert c.mode(2) == AgentMode.DONE
+    assert len(c.out_of_range_cells()) == 8  # the four cells on each side of the door
