@@ -618,6 +618,12 @@ class Coordinator:
         path = path_to_known(self.belief, a.index, frozenset(self._occupant) - {a.index})
         if not path:
             path = path_to_known(self.belief, a.index)
+        if path is None:
+            # Walled in for good (a lost vehicle in the only door): it can never come
+            # home, and the mission must not wait for it.
+            a.mode = AgentMode.DONE
+            self._drop_claim(a)
+            return WAIT
         if not path or self._occupant.get(path[0], a.id) != a.id:
             return WAIT
         if self.belief.state[path[0]] != _FREE:

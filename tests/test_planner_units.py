@@ -330,3 +330,27 @@ def test_a_lost_agent_blocks_its_cell_and_what_lies_behind_it() -> None:
         assert action.kind != ActionKind.MOVE, "nothing is reachable past the lost agent"
     assert c.mode(2) == AgentMode.DONE
     assert len(c.out_of_range_cells()) == 8  # the four cells on each side of the door
+
+
+def test_an_agent_walled_in_by_a_lost_one_gives_up() -> None:
+    """Behind the door when the other is lost in it: it can never come home, and it
+    says so (done) instead of keeping the mission waiting."""
+    from planner.coordinator import AgentMode, Coordinator
+    from planner.grid import CellState
+    from planner.settings import AgentSpec, PlannerSettings
+
+    rows = ["#######", "#..#..#", "#.....#", "###C###"]
+    known = np.array(
+        [[CellState.OBSTACLE if ch == "#" else CellState.FREE for ch in r] for r in rows],
+        dtype=np.int8,
+    )
+    agents = [AgentSpec(1, 0.0), AgentSpec(2, 0.0)]
+    c = Coordinator((4, 7), (3, 3), agents, PlannerSettings(), prior=known)
+    c.observe(1, (3, 3), {}, 100.0)
+    c.observe(2, (3, 3), {}, 100.0)
+    c.observe(2, (2, 3), {}, 100.0)
+    c.observe(2, (2, 2), {}, 100.0)  # agent 2 in the room...
+    c.observe(1, (2, 3), {}, 100.0)  # ...agent 1 in the door, lost there
+    c.mark_lost(1)
+    assert c.decide(2).kind == "wait"
+    assert c.mode(2) == AgentMode.DONE and c.finished

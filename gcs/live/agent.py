@@ -429,7 +429,11 @@ class Agent:
             self.view.phase = Phase.PARKING
             await self.pilot.park()
             self.view.phase = Phase.DONE
-            self._tell("is home, parked and disarmed")
+            cell = self.planner.coordinator.cell_of(self.id)
+            if cell == self.charger:
+                self._tell("is home, parked and disarmed")
+            else:
+                self._tell(f"is walled in at {cell}, no way home: parked there", Level.WARNING)
 
     async def _resync(self) -> None:
         """After a failed action: settle where the vehicle really is and tell the planner."""
