@@ -160,11 +160,13 @@ def _outcome(out: Path, row: dict[str, Any]) -> dict[str, Any]:
         return {**row, "error": row.get("error") or "no report"}
     reserve = report["reserve_pct"]
     low = min((a["min_battery_pct"] for a in report["agents"]), default=100.0)
-    try:
-        logged = json.loads(json.dumps(report_dict(read_log(out / "mission.mcap"))))
-        log = "complete" if logged == report else "differs from the report"
-    except LogError as exc:
-        log = f"unreadable ({exc})"
+    log = row.get("log")  # the killed row says what the first log lost
+    if log is None:
+        try:
+            logged = json.loads(json.dumps(report_dict(read_log(out / "mission.mcap"))))
+            log = "complete" if logged == report else "differs from the report"
+        except LogError as exc:
+            log = f"unreadable ({exc})"
     return {
         **row,
         "coverage_pct": report["coverage_pct"],
@@ -174,7 +176,7 @@ def _outcome(out: Path, row: dict[str, Any]) -> dict[str, Any]:
         "reserve_eaten_pct": round(max(0.0, reserve - low), 1),
         "reserve_pct": reserve,
         "total_path_m": report["total_path_m"],
-        "log": row.get("log", log),
+        "log": log,
     }
 
 
@@ -267,25 +269,37 @@ def _killed_and_resumed(
             row["error"] = last or f"exit {code}"
         return row
     finally:
-        fleet.terminate()
+        stop(fleet)
+
+
+def stop(proc: subprocess.Popen[Any]) -> None:
+    """Terminate a child process, killing it if it does not end within 10 s."""
+    if proc.poll() is None:
+        proc.terminate()
         try:
-            fleet.wait(timeout=10)
+            proc.wait(timeout=10)
         except subprocess.TimeoutExpired:
-            fleet.kill()
-            fleet.wait(timeout=10)
+            proc.kill()
+            proc.wait(timeout=10)
+
+
+def log_loss_s(log: Path, killed_at: float, speedup: float) -> float | None:
+    """Real seconds between a killed ground station's last logged vehicle state and the
+    kill (``killed_at``, Unix time); None when the log holds no run. Raises LogError."""
+    contents = read_contents(log)
+    if contents.meta is None or not contents.states:
+        return None
+    last_t = max(s[-1].t_s for s in contents.states.values() if s)
+    return max(0.0, killed_at - (contents.meta["started_unix_s"] + last_t / speedup))
 
 
 def _log_loss(log: Path, killed_at: float, speedup: float) -> str:
     """How much of the mission the killed ground station's log lost."""
     try:
-        contents = read_contents(log)
+        lost_s = log_loss_s(log, killed_at, speedup)
     except LogError as exc:
         return f"unreadable ({exc})"
-    if contents.meta is None or not contents.states:
-        return "nothing readable"
-    last_t = max(s[-1].t_s for s in contents.states.values() if s)
-    lost_s = max(0.0, killed_at - (contents.meta["started_unix_s"] + last_t / speedup))
-    return f"last {lost_s:.2f} s before the kill"
+    return "nothing readable" if lost_s is None else f"last {lost_s:.2f} s before the kill"
 
 
 # -- the table ----------------------------------------------------------------------------

@@ -143,8 +143,7 @@ class MapBelief:
         self.uncovered.discard(i)
         self.uncovered_mask[i] = 0
         dist = self.charger_dist
-        for k in range(len(dist)):  # in place: compiled searches hold views of it
-            dist[k] = UNREACHED
+        np.frombuffer(dist, dtype=np.int32)[:] = UNREACHED  # in place: searches hold views
         dist[self.charger_index] = 0
         self._relax_from(self.charger_index)
 

@@ -80,13 +80,16 @@ def test_diagonal_is_unknown_when_a_side_wall_may_hide_it() -> None:
     assert states[Direction.NE] == UNKNOWN
 
 
+def random_room(rng: random.Random) -> list[str]:
+    """A walled 7x7 room whose inner 5x5 cells are a third walls, at random."""
+    inner = ["#" + "".join(rng.choice("..#") for _ in range(5)) + "#" for _ in range(5)]
+    return ["#######", *inner, "#######"]
+
+
 def test_narrow_sectors_settle_the_diagonals() -> None:
     rng = random.Random(3)
     for _ in range(200):
-        rows = ["#######"] + [
-            "#" + "".join(rng.choice("..#") for _ in range(5)) + "#" for _ in range(5)
-        ]
-        rows.append("#######")
+        rows = random_room(rng)
         g = grid(rows)
         cell = (3, 3)
         if not g.is_free(cell):
@@ -117,10 +120,7 @@ def test_a_vehicle_still_arriving_never_sees_a_wrong_diagonal() -> None:
     rng = random.Random(5)
     settled = seen = 0
     for _ in range(300):
-        rows = ["#######"] + [
-            "#" + "".join(rng.choice("..#") for _ in range(5)) + "#" for _ in range(5)
-        ]
-        rows.append("#######")
+        rows = random_room(rng)
         g = grid(rows)
         cell = (3, 3)
         if not g.is_free(cell):

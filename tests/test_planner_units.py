@@ -303,26 +303,26 @@ def test_cells_back_in_range_after_a_better_estimate_are_covered() -> None:
     assert coordinator.belief.covered_count == int((~grid.obstacle).sum())
 
 
-def test_a_lost_agent_blocks_its_cell_and_what_lies_behind_it() -> None:
-    """A lost vehicle in a one-cell door: nobody waits on it for ever; the room behind
-    is out of reach (reported, not waited for) and the others finish."""
-    from planner.coordinator import ActionKind, AgentMode, Coordinator
-    from planner.grid import CellState
-    from planner.settings import AgentSpec, PlannerSettings
-
+def _door() -> Coordinator:
+    """Two rooms behind a one-cell door (2, 3) above the charger, the map known; two
+    agents on the charger."""
     rows = ["#######", "#..#..#", "#.....#", "###C###"]
-    known = np.array(
-        [[CellState.OBSTACLE if ch == "#" else CellState.FREE for ch in r] for r in rows],
-        dtype=np.int8,
-    )
+    known = np.array([[OBST if ch == "#" else FREE for ch in r] for r in rows], dtype=np.int8)
     agents = [AgentSpec(1, 0.0), AgentSpec(2, 0.0)]
     c = Coordinator((4, 7), (3, 3), agents, PlannerSettings(), prior=known)
     c.observe(1, (3, 3), {}, 100.0)
     c.observe(2, (3, 3), {}, 100.0)
+    return c
+
+
+def test_a_lost_agent_blocks_its_cell_and_what_lies_behind_it() -> None:
+    """A lost vehicle in a one-cell door: nobody waits on it for ever; the room behind
+    is out of reach (reported, not waited for) and the others finish."""
+    c = _door()
     c.observe(1, (2, 3), {}, 100.0)  # agent 1 stands in the door (2, 3)...
     c.mark_lost(1)  # ...and is lost there
-    assert c.belief.state_of((2, 3)) == CellState.OBSTACLE
-    assert c.belief.distance_to_charger((2, 2)) >= 1 << 30
+    assert c.belief.state_of((2, 3)) == OBST
+    assert c.belief.distance_to_charger((2, 2)) >= UNREACHED
     for _ in range(100):
         if c.mode(2) == AgentMode.DONE:
             break
@@ -335,22 +335,10 @@ def test_a_lost_agent_blocks_its_cell_and_what_lies_behind_it() -> None:
 def test_an_agent_walled_in_by_a_lost_one_gives_up() -> None:
     """Behind the door when the other is lost in it: it can never come home, and it
     says so (done) instead of keeping the mission waiting."""
-    from planner.coordinator import AgentMode, Coordinator
-    from planner.grid import CellState
-    from planner.settings import AgentSpec, PlannerSettings
-
-    rows = ["#######", "#..#..#", "#.....#", "###C###"]
-    known = np.array(
-        [[CellState.OBSTACLE if ch == "#" else CellState.FREE for ch in r] for r in rows],
-        dtype=np.int8,
-    )
-    agents = [AgentSpec(1, 0.0), AgentSpec(2, 0.0)]
-    c = Coordinator((4, 7), (3, 3), agents, PlannerSettings(), prior=known)
-    c.observe(1, (3, 3), {}, 100.0)
-    c.observe(2, (3, 3), {}, 100.0)
+    c = _door()
     c.observe(2, (2, 3), {}, 100.0)
     c.observe(2, (2, 2), {}, 100.0)  # agent 2 in the room...
     c.observe(1, (2, 3), {}, 100.0)  # ...agent 1 in the door, lost there
     c.mark_lost(1)
-    assert c.decide(2).kind == "wait"
+    assert c.decide(2).kind == ActionKind.WAIT
     assert c.mode(2) == AgentMode.DONE and c.finished

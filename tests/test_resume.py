@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gcs.bench_faults import log_loss_s, stop
 from gcs.live.resume import ResumeError, load_resume_point
 from gcs.log_reader import read_contents
 from gcs.mission import load_mission
@@ -181,16 +182,6 @@ def _spawn(*args: str) -> subprocess.Popen[str]:
     )
 
 
-def _stop(proc: subprocess.Popen[str]) -> None:
-    if proc.poll() is None:
-        proc.terminate()
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(timeout=10)
-
-
 def test_a_killed_ground_station_resumes_from_its_log(tmp_path: Path) -> None:
     """The mock fleet in its own process holds on GCS loss; the first ground station
     is killed mid-mission; the second one carries on from the first one's log."""
@@ -212,9 +203,8 @@ def test_a_killed_ground_station_resumes_from_its_log(tmp_path: Path) -> None:
         contents = read_contents(log)
         assert contents.truncated and contents.meta is not None and contents.result is None
         # Readable up to about a second before the kill (the writer flushes every second).
-        last_t = max(s[-1].t_s for s in contents.states.values())
-        last_wall = contents.meta["started_unix_s"] + last_t / KILL_SPEEDUP
-        assert killed_at - last_wall < 2.0, killed_at - last_wall
+        lost_s = log_loss_s(log, killed_at, KILL_SPEEDUP)
+        assert lost_s is not None and lost_s < 2.0, lost_s
         point = load_resume_point(log, load_mission(mission))
         assert 0 < point.covered_cells < load_mission(mission).map.free_count
 
@@ -225,7 +215,7 @@ def test_a_killed_ground_station_resumes_from_its_log(tmp_path: Path) -> None:
         )  # fmt: skip
         assert done.returncode == 0, done.stderr
     finally:
-        _stop(fleet)
+        stop(fleet)
     got = json.loads((second_out / "report.json").read_text())
     assert got["complete"] and got["lost_agents"] == 0
     assert got["resumed_logged_cells"] == point.covered_cells
