@@ -54,10 +54,14 @@ class MapBelief:
         self.steps = (-self.stride, self.stride, 1, -1)  # N, S, E, W
         self.covered_count = 0
         self.free_count = 0
-        #: Flat indices of known free cells not covered yet (the frontier), and
-        #: the same as a mask over the flat cells.
+        #: Flat indices of known free cells not covered yet (the frontier), the
+        #: same as a mask over the flat cells, and packed in the first
+        #: ``uncovered_count`` items of ``uncovered_list`` (for compiled scans).
         self.uncovered: set[int] = set()
         self.uncovered_mask = bytearray(size)
+        self.uncovered_list = array("q", bytes(8 * size))
+        self.uncovered_count = 0
+        self._listed_at = array("q", bytes(8 * size))
         self._set_free(self.charger_index)
 
     # -- addressing ---------------------------------------------------------
@@ -123,8 +127,7 @@ class MapBelief:
         self.covered[i] = 1
         self.covered_by[i] = agent + 1
         self.covered_count += 1
-        self.uncovered.discard(i)
-        self.uncovered_mask[i] = 0
+        self._drop_uncovered(i)
         return True
 
     def mark_free(self, i: int) -> None:
@@ -140,8 +143,7 @@ class MapBelief:
             return
         self.state[i] = _OBSTACLE
         self.free_count -= 1
-        self.uncovered.discard(i)
-        self.uncovered_mask[i] = 0
+        self._drop_uncovered(i)
         dist = self.charger_dist
         np.frombuffer(dist, dtype=np.int32)[:] = UNREACHED  # in place: searches hold views
         dist[self.charger_index] = 0
@@ -150,9 +152,12 @@ class MapBelief:
     def _set_free(self, i: int) -> None:
         self.state[i] = _FREE
         self.free_count += 1
-        if not self.covered[i]:
+        if not self.covered[i] and not self.uncovered_mask[i]:
             self.uncovered.add(i)
             self.uncovered_mask[i] = 1
+            self._listed_at[i] = self.uncovered_count
+            self.uncovered_list[self.uncovered_count] = i
+            self.uncovered_count += 1
         dist = self.charger_dist
         if i == self.charger_index:
             dist[i] = 0
@@ -164,6 +169,17 @@ class MapBelief:
                 return
             dist[i] = best + 1
         self._relax_from(i)
+
+    def _drop_uncovered(self, i: int) -> None:
+        if not self.uncovered_mask[i]:
+            return
+        self.uncovered.discard(i)
+        self.uncovered_mask[i] = 0
+        self.uncovered_count -= 1
+        last = self.uncovered_list[self.uncovered_count]
+        at = self._listed_at[i]
+        self.uncovered_list[at] = last
+        self._listed_at[last] = at
 
     def _relax_from(self, start: int) -> None:
         """Propagate a shortened distance outwards (decrease-only BFS)."""

@@ -634,17 +634,15 @@ class Coordinator:
 
     # -- moving along a path without collisions --------------------------------
 
-    def _plan(
-        self, a: _Agent, goal: int, blocked: frozenset[int] = frozenset()
-    ) -> list[int] | None:
+    def _plan(self, a: _Agent, goal: int) -> list[int] | None:
         # The way home is always the exact shortest path: the staying alive
         # policy budgets the return on it, so a longer roadmap path could eat
         # into the reserve.
-        if goal == self.belief.charger_index and not blocked:
+        if goal == self.belief.charger_index:
             return path_to_charger(self.belief, a.index)
-        if self._roadmap is not None and not blocked:
+        if self._roadmap is not None:
             return self._roadmap.path(self.belief, a.index, goal)
-        return self._search.path(a.index, goal, blocked)
+        return self._search.path(a.index, goal)
 
     def _follow(self, a: _Agent, goal: int) -> Action:
         if not a.path or abs(a.path[0] - a.index) not in (1, self.belief.stride):
@@ -678,9 +676,9 @@ class Coordinator:
         """
         if self._occupant.get(goal, a.id) != a.id:
             return None
-        blocked = frozenset(i for i in self._occupant if i != a.index)
-        path = self._plan(a, goal, blocked)
-        if not path or len(path) > len(a.path) + 2 * self.settings.patience:
+        blocked = [i for i in self._occupant if i != a.index]
+        path = self._search.path(a.index, goal, blocked, len(a.path) + 2 * self.settings.patience)
+        if not path:
             return None
         if a.mode in (AgentMode.RETURN, AgentMode.HOMING):
             affordable = a.battery_pct - self._move_cost(a) * len(path) >= (

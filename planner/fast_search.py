@@ -23,7 +23,12 @@ _FREE = int(CellState.FREE)
 
 @njit(cache=True, nogil=True)
 def _uncontested_horizon(
-    candidate: np.ndarray, start: int, stride: int, others_r: np.ndarray, others_c: np.ndarray
+    candidate: np.ndarray,
+    listed: np.ndarray,
+    start: int,
+    stride: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
 ) -> int:
     """The largest distance at which a candidate could still be uncontested.
 
@@ -31,15 +36,17 @@ def _uncontested_horizon(
     agent is at least ``d`` away (Manhattan); as ``d`` is at least the
     Manhattan distance from the start, only candidates that no other agent is
     nearer to (in Manhattan terms) can be, and none farther than its distance
-    to the nearest other agent. One pass over the candidate mask, far cheaper
-    than a search of the whole map.
+    to the nearest other agent. One pass over the candidates (``listed``, of
+    which those still marked in ``candidate`` count), far cheaper than a
+    search of the whole map.
     """
     if others_r.size == 0:
         return UNREACHED
     r0 = start // stride
     c0 = start % stride
     horizon = -1
-    for v in range(candidate.size):
+    for k in range(listed.size):
+        v = listed[k]
         if candidate[v] == 0:
             continue
         r = v // stride
@@ -61,6 +68,7 @@ def _uncontested_horizon(
 def _search(
     state: np.ndarray,
     candidate: np.ndarray,
+    listed: np.ndarray,
     home: np.ndarray,
     start: int,
     stride: int,
@@ -129,13 +137,13 @@ def _search(
             if hold > 0 and nearest_other >= min(d, hold + 1):
                 if best1 < 0:
                     best1 = v
-                    horizon = _uncontested_horizon(candidate, start, stride, others_r, others_c)
+                    horizon = _uncontested_horizon(candidate, listed, start, stride, others_r, others_c)
                     if d > horizon:
                         return 1, v
             elif best2 < 0:
                 best2 = v
                 if hold == 0:
-                    horizon = _uncontested_horizon(candidate, start, stride, others_r, others_c)
+                    horizon = _uncontested_horizon(candidate, listed, start, stride, others_r, others_c)
                     if d > horizon:
                         return 2, v
     if best1 >= 0:
@@ -152,32 +160,55 @@ def _path_search(
     start: int,
     goal: int,
     stride: int,
+    bound: int,
     seen: np.ndarray,
     stamp: int,
     parent: np.ndarray,
     queue: np.ndarray,
-) -> bool:
+) -> int:
     """Breadth-first from ``start`` until ``goal`` is reached (N, S, E, W order, as
-    ``paths.nearest``); ``parent`` then holds the path. False if unreachable."""
+    ``paths.nearest``), over the cells whose distance from the start plus
+    Manhattan distance to the goal is at most ``bound``: 1 when found
+    (``parent`` then holds the path), 0 when unreachable, else the smallest
+    bound that would let the search go further.
+
+    The Manhattan distance never drops by more than one a move, so every
+    shortest path to a kept cell runs over kept cells: the kept cells are
+    reached in the same order, from the same parents, as with no bound, and
+    the path found is the one the whole search finds.
+    """
     steps = (-stride, stride, 1, -1)
+    goal_r = goal // stride
+    goal_c = goal % stride
     seen[start] = stamp
     queue[0] = start
     head = 0
     tail = 1
+    level_end = 1
+    distance = 0
+    beyond = UNREACHED
     while head < tail:
+        if head == level_end:
+            level_end = tail
+            distance += 1
         u = queue[head]
         head += 1
         for k in range(4):
             v = u + steps[k]
             if state[v] != _FREE or seen[v] == stamp or blocked[v] != 0:
                 continue
+            reach = distance + 1 + abs(v // stride - goal_r) + abs(v % stride - goal_c)
+            if reach > bound:
+                if reach < beyond:
+                    beyond = reach
+                continue
             seen[v] = stamp
             parent[v] = u
             if v == goal:
-                return True
+                return 1
             queue[tail] = v
             tail += 1
-    return False
+    return 0 if beyond == UNREACHED else beyond
 
 
 class TargetSearch:
@@ -192,33 +223,48 @@ class TargetSearch:
         self.stamp = 0
         self.state = np.frombuffer(belief.state, dtype=np.uint8)
         self.candidate = np.frombuffer(belief.uncovered_mask, dtype=np.uint8)
+        self.uncovered_list = np.frombuffer(belief.uncovered_list, dtype=np.int64)
         self._pool_mask = np.zeros(size, dtype=np.uint8)
         self._blocked = np.zeros(size, dtype=np.uint8)
         self.home = np.frombuffer(belief.charger_dist, dtype=np.int32)
 
-    def path(self, start: int, goal: int, blocked: Iterable[int] = ()) -> list[int] | None:
+    def path(
+        self, start: int, goal: int, blocked: Iterable[int] = (), longest: int | None = None
+    ) -> list[int] | None:
         """The shortest path from ``start`` to ``goal`` over known free cells, not
-        entering ``blocked`` cells: the start excluded, the goal included."""
+        entering ``blocked`` cells: the start excluded, the goal included. None
+        if there is none, or none of at most ``longest`` moves."""
         if start == goal:
             return []
-        self.stamp += 1
         marked = list(blocked)
         self._blocked[marked] = 1
+        stride = self.belief.stride
+        shortest = abs(start // stride - goal // stride) + abs(start % stride - goal % stride)
+        bound, slack = (shortest, 1) if longest is None else (longest, 0)
         try:
-            found = _path_search(
-                self.state,
-                self._blocked,
-                start,
-                goal,
-                self.belief.stride,
-                self.seen,
-                self.stamp,
-                self.parent,
-                self.queue,
-            )
+            while True:
+                # Widen the bound until the goal is in: the slack doubles, so the
+                # searches that fall short cost no more than the last one.
+                self.stamp += 1
+                found = _path_search(
+                    self.state,
+                    self._blocked,
+                    start,
+                    goal,
+                    stride,
+                    bound,
+                    self.seen,
+                    self.stamp,
+                    self.parent,
+                    self.queue,
+                )
+                if found <= 1 or longest is not None:
+                    break
+                slack = max(2 * slack, found - shortest)
+                bound = shortest + slack
         finally:
             self._blocked[marked] = 0
-        return self._unwind(start, goal) if found else None
+        return self._unwind(start, goal) if found == 1 else None
 
     def _unwind(self, start: int, goal: int) -> list[int]:
         path = [goal]
@@ -247,10 +293,12 @@ class TargetSearch:
         self.stamp += 1
         if pool is None:
             mask = self.candidate
+            listed = self.uncovered_list[: self.belief.uncovered_count]
         else:
             mask = self._pool_mask
             pool = list(pool)
             mask[pool] = 1
+            listed = np.array(pool, dtype=np.int64)
         saved = [(i, mask[i]) for i in excluded]
         for i, _ in saved:
             mask[i] = 0
@@ -258,6 +306,7 @@ class TargetSearch:
             rank, cell = _search(
                 self.state,
                 mask,
+                listed,
                 self.home,
                 start,
                 self.belief.stride,
