@@ -25,7 +25,7 @@ import numpy as np
 
 from planner import btp
 from planner.belief import UNREACHED, MapBelief
-from planner.fast_search import TargetSearch
+from planner.fast_search import TargetSearch, nearest_manhattan
 from planner.grid import MOVES, Cell, CellState, Direction, manhattan
 from planner.paths import path_to_charger, path_to_known
 from planner.prm import Roadmap
@@ -108,16 +108,38 @@ class _Held:
 
 
 HELD = _Held()
+_NOBODY = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
 
 _PRIORITY = {AgentMode.RETURN: 3, AgentMode.HOMING: 2, AgentMode.TRANSIT: 1}
+
+
+_WORKING = frozenset({AgentMode.EXPLORE, AgentMode.TRANSIT})
+
+
+class _Team:
+    """Where every agent is and which are working (sweeping or on the way to sweep),
+    as arrays the compiled searches read without building lists each decision."""
+
+    def __init__(self, size: int, at: Cell) -> None:
+        self.rows = np.full(size, at[0], dtype=np.int64)
+        self.cols = np.full(size, at[1], dtype=np.int64)
+        self.working = np.ones(size, dtype=np.bool_)
+
+    def others(self, slot: int) -> tuple[np.ndarray, np.ndarray]:
+        """Rows and columns of the working agents other than ``slot``."""
+        mask = self.working.copy()
+        mask[slot] = False
+        return self.rows[mask], self.cols[mask]
 
 
 @dataclass
 class _Agent:
     spec: AgentSpec
     index: int
+    team: _Team
+    slot: int
     battery_pct: float = 100.0
-    mode: AgentMode = AgentMode.EXPLORE
+    _mode: AgentMode = AgentMode.EXPLORE
     path: list[int] = field(default_factory=list)  # remaining moves, next first
     goal: int | None = None
     heading: Direction | None = None
@@ -130,6 +152,8 @@ class _Agent:
     letting_pass: tuple[int, int, int] | None = None
     #: The target of the transit being re-decided (``replan_transit``).
     was_heading_for: int | None = None
+    #: Transit moves left before the target is searched for again (``replan_transit``).
+    recheck_in: int = 0
     held_for: int = 0  # decisions to wait before searching for a target again
     held_backoff: int = 0
     #: Asked to make way by an agent that is itself making way (see ``_make_way``).
@@ -138,6 +162,19 @@ class _Agent:
     @property
     def id(self) -> int:
         return self.spec.id
+
+    @property
+    def mode(self) -> AgentMode:
+        return self._mode
+
+    @mode.setter
+    def mode(self, mode: AgentMode) -> None:
+        self._mode = mode
+        self.team.working[self.slot] = mode in _WORKING
+
+    def stand(self, index: int, cell: Cell) -> None:
+        self.index = index
+        self.team.rows[self.slot], self.team.cols[self.slot] = cell
 
 
 class Coordinator:
@@ -159,7 +196,11 @@ class Coordinator:
         if prior is not None:
             self._load_prior(prior)
         self.stacks = btp.BtpStacks()
-        self._agents = {a.id: _Agent(a, self.belief.charger_index) for a in agents}
+        self._team = _Team(len(agents), charger)
+        self._agents = {
+            a.id: _Agent(a, self.belief.charger_index, self._team, slot)
+            for slot, a in enumerate(agents)
+        }
         self._occupant: dict[int, int] = {}
         self._claims: dict[int, int] = {}  # target cell -> agent chasing it
         self._events: list[PlannerEvent] = []
@@ -238,7 +279,7 @@ class Coordinator:
             if a.trailing is not None:
                 self._release(a.trailing, a.id)
             a.trailing = a.index
-            a.index = index
+            a.stand(index, cell)
         self._occupy(index, a.id)
         a.battery_pct = battery_pct
         newly_free = belief.sense(cell, readings)
@@ -371,22 +412,24 @@ class Coordinator:
                 self._events.append(PlannerEvent(EventKind.CHARGED, a.id, self.belief.charger))
                 return CHARGE
             return self._follow(a, self.belief.charger_index)
+        nxt = self._bm_next(a)
         if a.mode == AgentMode.TRANSIT:
             assert a.goal is not None
             # Re-deciding needs consistent shortest paths: with the roadmap a
             # fresh path from one step on can be longer than the rest of the
             # old one, and the agent would turn back before every arrival.
+            replan = self.settings.replan_transit and self._roadmap is None
             if (
                 a.index == a.goal
                 or a.goal not in self.belief.uncovered
-                or (self.settings.replan_transit and self._roadmap is None)
+                or (replan and (nxt is not None or a.recheck_in <= 0))
             ):
                 a.was_heading_for = a.goal
                 self._drop_claim(a)
                 a.mode = AgentMode.EXPLORE
             else:
+                a.recheck_in -= 1
                 return self._follow(a, a.goal)
-        nxt = self._bm_next(a)
         if nxt is not None:
             a.was_heading_for = None
             if self._can_afford(a, 1, nxt):
@@ -438,12 +481,11 @@ class Coordinator:
         tied = [v for v, n in zip(candidates, counts, strict=True) if n == tightest]
         if len(tied) == 1 or not self.settings.bm_spread:
             return tied[0]
-        others = self._working_cells(a)
+        rows, cols = self._team.others(a.slot)
         cell_of = self.belief.cell
 
         def crowding(v: int) -> int:
-            r, c = cell_of(v)
-            return -min((abs(r - o[0]) + abs(c - o[1]) for o in others), default=0)
+            return -nearest_manhattan(rows, cols, *cell_of(v))
 
         return min(tied, key=crowding)
 
@@ -510,6 +552,7 @@ class Coordinator:
                 path = old_path
             self._claims[goal] = a.id
             a.goal, a.path, a.mode = goal, path, AgentMode.TRANSIT
+            a.recheck_in = int(len(path) * self.settings.transit_recheck_share)
             kind = EventKind.SAFETY_NET if tier == _Tier.NET else EventKind.TARGET
             if tier == _Tier.NET:
                 self.safety_net_fires += 1
@@ -544,7 +587,7 @@ class Coordinator:
             self.settings.reserve_pct - _EPS,
             self._best_move_cost(),
             self._range_budget_pct,
-            self._working_cells(a) if spread else [],
+            self._team.others(a.slot) if spread else _NOBODY,
             hold,
             list(self._claims),
             pool,
@@ -569,14 +612,6 @@ class Coordinator:
     def _range_budget_pct(self) -> float:
         """Battery a full charge leaves for a round trip above the reserve."""
         return self.settings.resume_pct - self.settings.reserve_pct + _EPS
-
-    def _working_cells(self, a: _Agent) -> list[Cell]:
-        """Where the other agents that are sweeping or on their way to sweep are."""
-        return [
-            self.belief.cell(b.index)
-            for b in self._agents.values()
-            if b is not a and b.mode in (AgentMode.EXPLORE, AgentMode.TRANSIT)
-        ]
 
     # -- staying alive policy (Algorithm 2) ------------------------------------
 

@@ -211,6 +211,19 @@ def _path_search(
     return 0 if beyond == UNREACHED else beyond
 
 
+@njit(cache=True, nogil=True)
+def nearest_manhattan(rows: np.ndarray, cols: np.ndarray, r: int, c: int) -> int:
+    """The Manhattan distance from ``(r, c)`` to the nearest of the cells (0 if none)."""
+    if rows.size == 0:
+        return 0
+    nearest = UNREACHED
+    for j in range(rows.size):
+        m = abs(r - rows[j]) + abs(c - cols[j])
+        if m < nearest:
+            nearest = m
+    return nearest
+
+
 class TargetSearch:
     """Scratch arrays for ``_search``, reused across calls on one belief."""
 
@@ -282,14 +295,14 @@ class TargetSearch:
         floor: float,
         best_cost: float,
         budget: float,
-        others: list[tuple[int, int]],
+        others: tuple[np.ndarray, np.ndarray],
         hold: int,
         excluded: list[int],
         pool: Iterable[int] | None = None,
     ) -> tuple[int, int, list[int]] | None:
         """The best target as ``(rank, cell, path)`` among ``pool`` (None: the
-        uncovered cells); ``excluded`` cells (claimed by other agents) are not
-        candidates."""
+        uncovered cells), ranked against the ``others`` (rows, columns) agents;
+        ``excluded`` cells (claimed by other agents) are not candidates."""
         self.stamp += 1
         if pool is None:
             mask = self.candidate
@@ -315,8 +328,8 @@ class TargetSearch:
                 floor,
                 best_cost,
                 budget,
-                np.array([o[0] for o in others], dtype=np.int64),
-                np.array([o[1] for o in others], dtype=np.int64),
+                others[0],
+                others[1],
                 hold,
                 self.seen,
                 self.stamp,
@@ -338,7 +351,9 @@ def _warm_up() -> None:
     belief = MapBelief((1, 2), (0, 0))
     belief.mark_free(belief.index((0, 1)))
     search = TargetSearch(belief)
-    search.run(belief.index((0, 0)), 100.0, 0.0, 0.0, 0.0, 100.0, [], 0, [])
+    nobody = np.zeros(0, dtype=np.int64)
+    search.run(belief.index((0, 0)), 100.0, 0.0, 0.0, 0.0, 100.0, (nobody, nobody), 0, [])
+    nearest_manhattan(nobody, nobody, 0, 0)
     search.path(belief.index((0, 0)), belief.index((0, 1)))
 
 

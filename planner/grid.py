@@ -35,6 +35,10 @@ class Direction(Enum):
     SW = (1, -1)
     W = (0, -1)
 
+    #: Members are singletons: hashing by identity (in C) instead of by name (in
+    #: Python, Enum's default) makes the many look-ups keyed by direction cheap.
+    __hash__ = object.__hash__
+
     @property
     def dr(self) -> int:
         return self.value[0]
