@@ -52,6 +52,7 @@ class MapBelief:
         self.charger = charger
         self.charger_index = self.index(charger)
         self.steps = (-self.stride, self.stride, 1, -1)  # N, S, E, W
+        self._offset = {d: dr * self.stride + dc for d, (dr, dc) in _DELTA.items()}
         self.covered_count = 0
         self.free_count = 0
         #: Flat indices of known free cells not covered yet (the frontier), the
@@ -98,20 +99,18 @@ class MapBelief:
     def sense(self, cell: Cell, readings: Mapping[Direction, CellState]) -> list[int]:
         """Record what an agent at ``cell`` sensed; return newly known free cells."""
         newly_free: list[int] = []
-        rows, cols = self.shape
+        state, offset = self.state, self._offset
+        here = self.index(cell)
         for direction, observed in readings.items():
-            dr, dc = _DELTA[direction]
-            r, c = cell[0] + dr, cell[1] + dc
-            if not (0 <= r < rows and 0 <= c < cols) or observed == CellState.UNKNOWN:
+            # Neighbours off the map fall on the border, which is known (obstacle).
+            i = here + offset[direction]
+            if state[i] != _UNKNOWN or observed == _UNKNOWN:
                 continue
-            i = (r + 1) * self.stride + c + 1
-            if self.state[i] != _UNKNOWN:
-                continue
-            if observed == CellState.FREE:
+            if observed == _FREE:
                 self._set_free(i)
                 newly_free.append(i)
             else:
-                self.state[i] = _OBSTACLE
+                state[i] = _OBSTACLE
         return newly_free
 
     def cover(self, cell: Cell, agent: int) -> bool:

@@ -25,13 +25,23 @@ _SIDES: dict[Direction, tuple[Direction, Direction]] = {
 }
 
 
+def _offsets(heading: Direction, stride: int) -> tuple[int, tuple[int, int]]:
+    """Flat offsets of the cell ahead and of the two side cells."""
+    return heading.dr * stride + heading.dc, tuple(s.dr * stride + s.dc for s in _SIDES[heading])
+
+
+_OFFSETS: dict[tuple[Direction, int], tuple[int, tuple[int, int]]] = {}
+
+
 def detect(belief: MapBelief, index: int, heading: Direction) -> list[int]:
     """BTPs seen by an agent at flat ``index`` that has just moved towards ``heading``."""
     state, covered, stride = belief.state, belief.covered, belief.stride
-    ahead = heading.dr * stride + heading.dc
+    key = (heading, stride)
+    if key not in _OFFSETS:
+        _OFFSETS[key] = _offsets(heading, stride)
+    ahead, sides = _OFFSETS[key]
     found = []
-    for side in _SIDES[heading]:
-        step = side.dr * stride + side.dc
+    for step in sides:
         x = index + step
         if state[x] != _FREE or covered[x]:
             continue

@@ -205,6 +205,7 @@ class Coordinator:
         self._claims: dict[int, int] = {}  # target cell -> agent chasing it
         self._events: list[PlannerEvent] = []
         self._complete = False
+        self._witness: int | None = None  # see ``coverage_complete``
         self._search = TargetSearch(self.belief)
         self._roadmap = (
             Roadmap(self.settings) if self.settings.path_planner == PathPlannerKind.PRM else None
@@ -236,7 +237,13 @@ class Coordinator:
         Judged afresh every time: online, a better estimate of the agents'
         consumption can bring cells judged out of range back into range.
         """
-        complete = not any(self._in_range(i) for i in self.belief.uncovered)
+        witness = self._witness
+        if witness is None or not self.belief.uncovered_mask[witness] or not self._in_range(witness):
+            # An uncovered cell in range, kept while it stays one: most calls need no scan.
+            witness = self._witness = next(
+                (i for i in self.belief.uncovered if self._in_range(i)), None
+            )
+        complete = witness is None
         if complete and not self._complete:
             self._events.append(PlannerEvent(EventKind.COVERAGE_COMPLETE, -1))
         self._complete = complete
@@ -461,22 +468,22 @@ class Coordinator:
         """
         state, covered, occupant = self.belief.state, self.belief.covered, self._occupant
         steps = self.belief.steps
-        candidates = [
-            v
-            for v in (a.index + s for s in steps)
-            if state[v] == _FREE and not covered[v] and v not in occupant
-        ]
+        here = a.index
+        candidates = []
+        for s in steps:
+            v = here + s
+            if state[v] == _FREE and not covered[v] and v not in occupant:
+                candidates.append(v)
         if len(candidates) <= 1 or self.settings.bm_rule == BmRule.PAPER:
             return candidates[0] if candidates else None
-
-        def openings(v: int) -> int:
-            return sum(
-                1
-                for s in steps
-                if v + s != a.index and state[v + s] != _OBSTACLE and not covered[v + s]
-            )
-
-        counts = [openings(v) for v in candidates]
+        counts = []
+        for v in candidates:
+            n = 0
+            for s in steps:
+                w = v + s
+                if w != here and state[w] != _OBSTACLE and not covered[w]:
+                    n += 1
+            counts.append(n)
         tightest = min(counts)
         tied = [v for v, n in zip(candidates, counts, strict=True) if n == tightest]
         if len(tied) == 1 or not self.settings.bm_spread:

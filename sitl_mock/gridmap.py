@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
-from planner.grid import MOVES, Cell
+from planner.grid import Cell
 
 
 @dataclass(frozen=True)
@@ -42,16 +42,7 @@ class GridMap:
     def reachable(self, start: Cell | None = None) -> np.ndarray:
         """Boolean mask of the free cells 4-connected to ``start`` (default: the charger)."""
         start = self.charger if start is None else start
-        seen = np.zeros(self.obstacle.shape, dtype=bool)
         if not self.is_free(start):
-            return seen
-        seen[start] = True
-        queue: deque[Cell] = deque([start])
-        while queue:
-            cell = queue.popleft()
-            for d in MOVES:
-                nxt = d.of(cell)
-                if self.is_free(nxt) and not seen[nxt]:
-                    seen[nxt] = True
-                    queue.append(nxt)
-        return seen
+            return np.zeros(self.obstacle.shape, dtype=bool)
+        labels, _ = ndimage.label(~self.obstacle)  # 4-connected by default
+        return labels == labels[start]

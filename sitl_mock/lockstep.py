@@ -46,6 +46,7 @@ class LockstepWorld:
         self.charging_slots = charging_slots
         self._bodies = {b.id: b for b in bodies}
         self.position: dict[int, Cell] = {b.id: grid.charger for b in bodies}
+        self._held: dict[Cell, int] = {}  # cell -> agent on it, off the pad
         self.battery: dict[int, float] = {b.id: 100.0 for b in bodies}
         self.dead: set[int] = set()
         self._queue: list[int] = []  # charging requests, first come first served
@@ -69,10 +70,13 @@ class LockstepWorld:
             raise WorldError(f"agent {agent}: {here} -> {to} is not a move to a neighbour")
         if not self.grid.is_free(to):
             raise WorldError(f"agent {agent}: {to} is an obstacle")
+        other = self._held.get(to, agent)
+        if other != agent:
+            raise WorldError(f"agent {agent}: {to} is held by agent {other}")
+        if self._held.get(here) == agent:
+            del self._held[here]
         if to != self.grid.charger:
-            for other, cell in self.position.items():
-                if other != agent and cell == to:
-                    raise WorldError(f"agent {agent}: {to} is held by agent {other}")
+            self._held[to] = agent
         self.position[agent] = to
         self.battery[agent] -= self._bodies[agent].energy_per_m_pct * self.cell_size_m
         if self.battery[agent] <= 0:
