@@ -61,6 +61,9 @@ class MapBelief:
         self.uncovered: set[int] = set()
         self.uncovered_mask = bytearray(size)
         self.uncovered_list = array("q", bytes(8 * size))
+        #: Row and column (in the padded grid) of each cell of ``uncovered_list``.
+        self.uncovered_rows = array("q", bytes(8 * size))
+        self.uncovered_cols = array("q", bytes(8 * size))
         self.uncovered_count = 0
         self._listed_at = array("q", bytes(8 * size))
         self._set_free(self.charger_index)
@@ -154,9 +157,11 @@ class MapBelief:
         if not self.covered[i] and not self.uncovered_mask[i]:
             self.uncovered.add(i)
             self.uncovered_mask[i] = 1
-            self._listed_at[i] = self.uncovered_count
-            self.uncovered_list[self.uncovered_count] = i
-            self.uncovered_count += 1
+            n = self.uncovered_count
+            self._listed_at[i] = n
+            self.uncovered_list[n] = i
+            self.uncovered_rows[n], self.uncovered_cols[n] = divmod(i, self.stride)
+            self.uncovered_count = n + 1
         dist = self.charger_dist
         if i == self.charger_index:
             dist[i] = 0
@@ -174,10 +179,12 @@ class MapBelief:
             return
         self.uncovered.discard(i)
         self.uncovered_mask[i] = 0
-        self.uncovered_count -= 1
-        last = self.uncovered_list[self.uncovered_count]
+        n = self.uncovered_count = self.uncovered_count - 1
+        last = self.uncovered_list[n]
         at = self._listed_at[i]
         self.uncovered_list[at] = last
+        self.uncovered_rows[at] = self.uncovered_rows[n]
+        self.uncovered_cols[at] = self.uncovered_cols[n]
         self._listed_at[last] = at
 
     def _relax_from(self, start: int) -> None:

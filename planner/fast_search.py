@@ -25,6 +25,8 @@ _FREE = int(CellState.FREE)
 def _uncontested_horizon(
     candidate: np.ndarray,
     listed: np.ndarray,
+    listed_r: np.ndarray,
+    listed_c: np.ndarray,
     start: int,
     stride: int,
     others_r: np.ndarray,
@@ -36,28 +38,35 @@ def _uncontested_horizon(
     agent is at least ``d`` away (Manhattan); as ``d`` is at least the
     Manhattan distance from the start, only candidates that no other agent is
     nearer to (in Manhattan terms) can be, and none farther than its distance
-    to the nearest other agent. One pass over the candidates (``listed``, of
-    which those still marked in ``candidate`` count), far cheaper than a
-    search of the whole map.
+    to the nearest other agent. One pass over the candidates (``listed``, with
+    their padded rows and columns, of which those still marked in
+    ``candidate`` count), far cheaper than a search of the whole map.
     """
     if others_r.size == 0:
         return UNREACHED
-    r0 = start // stride
-    c0 = start % stride
+    r0 = start // stride - 1
+    c0 = start % stride - 1
     horizon = -1
+    n = others_r.size
+    closer = 0  # the agent found nearer than us last: neighbouring candidates likely share it
     for k in range(listed.size):
-        v = listed[k]
-        if candidate[v] == 0:
+        if candidate[listed[k]] == 0:
             continue
-        r = v // stride
-        c = v % stride
+        r = listed_r[k] - 1
+        c = listed_c[k] - 1
         mine = abs(r - r0) + abs(c - c0)
+        if abs(r - others_r[closer]) + abs(c - others_c[closer]) < mine:
+            continue
         nearest_other = UNREACHED
-        for j in range(others_r.size):
-            m = abs(r - 1 - others_r[j]) + abs(c - 1 - others_c[j])
+        for i in range(n):
+            j = closer + i
+            if j >= n:
+                j -= n
+            m = abs(r - others_r[j]) + abs(c - others_c[j])
             if m < nearest_other:
                 nearest_other = m
                 if m < mine:
+                    closer = j
                     break
         if nearest_other >= mine and nearest_other > horizon:
             horizon = nearest_other
@@ -69,6 +78,8 @@ def _search(
     state: np.ndarray,
     candidate: np.ndarray,
     listed: np.ndarray,
+    listed_r: np.ndarray,
+    listed_c: np.ndarray,
     home: np.ndarray,
     start: int,
     stride: int,
@@ -137,13 +148,17 @@ def _search(
             if hold > 0 and nearest_other >= min(d, hold + 1):
                 if best1 < 0:
                     best1 = v
-                    horizon = _uncontested_horizon(candidate, listed, start, stride, others_r, others_c)
+                    horizon = _uncontested_horizon(
+                        candidate, listed, listed_r, listed_c, start, stride, others_r, others_c
+                    )
                     if d > horizon:
                         return 1, v
             elif best2 < 0:
                 best2 = v
                 if hold == 0:
-                    horizon = _uncontested_horizon(candidate, listed, start, stride, others_r, others_c)
+                    horizon = _uncontested_horizon(
+                        candidate, listed, listed_r, listed_c, start, stride, others_r, others_c
+                    )
                     if d > horizon:
                         return 2, v
     if best1 >= 0:
@@ -230,13 +245,15 @@ class TargetSearch:
     def __init__(self, belief: MapBelief) -> None:
         size = len(belief.state)
         self.belief = belief
-        self.seen = np.zeros(size, dtype=np.int64)
-        self.parent = np.zeros(size, dtype=np.int64)
-        self.queue = np.zeros(size, dtype=np.int64)
+        self.seen = np.zeros(size, dtype=np.int32)
+        self.parent = np.zeros(size, dtype=np.int32)
+        self.queue = np.zeros(size, dtype=np.int32)
         self.stamp = 0
         self.state = np.frombuffer(belief.state, dtype=np.uint8)
         self.candidate = np.frombuffer(belief.uncovered_mask, dtype=np.uint8)
         self.uncovered_list = np.frombuffer(belief.uncovered_list, dtype=np.int64)
+        self.uncovered_rows = np.frombuffer(belief.uncovered_rows, dtype=np.int64)
+        self.uncovered_cols = np.frombuffer(belief.uncovered_cols, dtype=np.int64)
         self._pool_mask = np.zeros(size, dtype=np.uint8)
         self._blocked = np.zeros(size, dtype=np.uint8)
         self.home = np.frombuffer(belief.charger_dist, dtype=np.int32)
@@ -306,12 +323,15 @@ class TargetSearch:
         self.stamp += 1
         if pool is None:
             mask = self.candidate
-            listed = self.uncovered_list[: self.belief.uncovered_count]
+            n = self.belief.uncovered_count
+            listed = self.uncovered_list[:n]
+            listed_r, listed_c = self.uncovered_rows[:n], self.uncovered_cols[:n]
         else:
             mask = self._pool_mask
             pool = list(pool)
             mask[pool] = 1
             listed = np.array(pool, dtype=np.int64)
+            listed_r, listed_c = np.divmod(listed, self.belief.stride)
         saved = [(i, mask[i]) for i in excluded]
         for i, _ in saved:
             mask[i] = 0
@@ -320,6 +340,8 @@ class TargetSearch:
                 self.state,
                 mask,
                 listed,
+                listed_r,
+                listed_c,
                 self.home,
                 start,
                 self.belief.stride,
