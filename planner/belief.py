@@ -61,10 +61,11 @@ class MapBelief:
         self.uncovered: set[int] = set()
         self.uncovered_mask = bytearray(size)
         self.uncovered_list = array("q", bytes(8 * size))
-        #: Row and column (in the padded grid) of each cell of ``uncovered_list``.
-        self.uncovered_rows = array("q", bytes(8 * size))
-        self.uncovered_cols = array("q", bytes(8 * size))
         self.uncovered_count = 0
+        #: Every cell that joined the uncovered ones, in order: the first
+        #: ``added_count`` items (what joined since some moment is a slice).
+        self.added = array("q", bytes(8 * size))
+        self.added_count = 0
         self._listed_at = array("q", bytes(8 * size))
         self._set_free(self.charger_index)
 
@@ -160,8 +161,9 @@ class MapBelief:
             n = self.uncovered_count
             self._listed_at[i] = n
             self.uncovered_list[n] = i
-            self.uncovered_rows[n], self.uncovered_cols[n] = divmod(i, self.stride)
             self.uncovered_count = n + 1
+            self.added[self.added_count] = i
+            self.added_count += 1
         dist = self.charger_dist
         if i == self.charger_index:
             dist[i] = 0
@@ -183,8 +185,6 @@ class MapBelief:
         last = self.uncovered_list[n]
         at = self._listed_at[i]
         self.uncovered_list[at] = last
-        self.uncovered_rows[at] = self.uncovered_rows[n]
-        self.uncovered_cols[at] = self.uncovered_cols[n]
         self._listed_at[last] = at
 
     def _relax_from(self, start: int) -> None:

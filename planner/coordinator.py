@@ -25,7 +25,7 @@ import numpy as np
 
 from planner import btp
 from planner.belief import UNREACHED, MapBelief
-from planner.fast_search import TargetSearch, nearest_manhattan
+from planner.fast_search import HorizonMemo, TargetSearch, nearest_manhattan
 from planner.grid import MOVES, Cell, CellState, Direction, manhattan
 from planner.paths import path_to_charger, path_to_known
 from planner.prm import Roadmap
@@ -200,6 +200,11 @@ class Coordinator:
         self._agents = {
             a.id: _Agent(a, self.belief.charger_index, self._team, slot)
             for slot, a in enumerate(agents)
+        }
+        team = self._team
+        self._memos = {
+            a.id: HorizonMemo(team.rows, team.cols, team.working, a.slot)
+            for a in self._agents.values()
         }
         self._occupant: dict[int, int] = {}
         self._claims: dict[int, int] = {}  # target cell -> agent chasing it
@@ -559,7 +564,8 @@ class Coordinator:
                 path = old_path
             self._claims[goal] = a.id
             a.goal, a.path, a.mode = goal, path, AgentMode.TRANSIT
-            a.recheck_in = int(len(path) * self.settings.transit_recheck_share)
+            far = len(path) - self.settings.transit_recheck_beyond
+            a.recheck_in = int(far * self.settings.transit_recheck_share) if far > 0 else 0
             kind = EventKind.SAFETY_NET if tier == _Tier.NET else EventKind.TARGET
             if tier == _Tier.NET:
                 self.safety_net_fires += 1
@@ -598,6 +604,7 @@ class Coordinator:
             hold,
             list(self._claims),
             pool,
+            self._memos[a.id] if pool is None else None,
         )
         if found is None:
             return None

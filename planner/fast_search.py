@@ -25,37 +25,44 @@ _FREE = int(CellState.FREE)
 def _uncontested_horizon(
     candidate: np.ndarray,
     listed: np.ndarray,
-    listed_r: np.ndarray,
-    listed_c: np.ndarray,
     start: int,
     stride: int,
     others_r: np.ndarray,
     others_c: np.ndarray,
-) -> int:
+    margin: int,
+    kept: np.ndarray,
+) -> tuple[int, int]:
     """The largest distance at which a candidate could still be uncontested.
 
     A candidate ``v`` at path distance ``d`` is uncontested when every other
     agent is at least ``d`` away (Manhattan); as ``d`` is at least the
     Manhattan distance from the start, only candidates that no other agent is
     nearer to (in Manhattan terms) can be, and none farther than its distance
-    to the nearest other agent. One pass over the candidates (``listed``, with
-    their padded rows and columns, of which those still marked in
-    ``candidate`` count), far cheaper than a search of the whole map.
+    to the nearest other agent. One pass over the ``listed`` cells (those
+    still marked in ``candidate`` count), far cheaper than a search of the map.
+
+    With ``margin`` >= 0 the pass also keeps, in ``kept``, every listed cell
+    (marked or not: a claim may be released) that no other agent is more than
+    ``margin`` nearer to than the start is, and returns their count (else -1):
+    see ``HorizonMemo``.
     """
     if others_r.size == 0:
-        return UNREACHED
+        return UNREACHED, -1
     r0 = start // stride - 1
     c0 = start % stride - 1
     horizon = -1
     n = others_r.size
+    count = 0
     closer = 0  # the agent found nearer than us last: neighbouring candidates likely share it
     for k in range(listed.size):
-        if candidate[listed[k]] == 0:
+        v = listed[k]
+        if margin < 0 and candidate[v] == 0:
             continue
-        r = listed_r[k] - 1
-        c = listed_c[k] - 1
+        r = v // stride - 1
+        c = v % stride - 1
         mine = abs(r - r0) + abs(c - c0)
-        if abs(r - others_r[closer]) + abs(c - others_c[closer]) < mine:
+        floor = mine - margin if margin > 0 else mine
+        if abs(r - others_r[closer]) + abs(c - others_c[closer]) < floor:
             continue
         nearest_other = UNREACHED
         for i in range(n):
@@ -65,12 +72,17 @@ def _uncontested_horizon(
             m = abs(r - others_r[j]) + abs(c - others_c[j])
             if m < nearest_other:
                 nearest_other = m
-                if m < mine:
+                if m < floor:
                     closer = j
                     break
-        if nearest_other >= mine and nearest_other > horizon:
+        if nearest_other < floor:
+            continue
+        if margin >= 0:
+            kept[count] = v
+            count += 1
+        if candidate[v] != 0 and nearest_other >= mine and nearest_other > horizon:
             horizon = nearest_other
-    return horizon
+    return horizon, count if margin >= 0 else -1
 
 
 @njit(cache=True, nogil=True)
@@ -78,8 +90,8 @@ def _search(
     state: np.ndarray,
     candidate: np.ndarray,
     listed: np.ndarray,
-    listed_r: np.ndarray,
-    listed_c: np.ndarray,
+    margin: int,
+    kept: np.ndarray,
     home: np.ndarray,
     start: int,
     stride: int,
@@ -95,8 +107,9 @@ def _search(
     stamp: int,
     parent: np.ndarray,
     queue: np.ndarray,
-) -> tuple[int, int]:
-    """Returns (rank, cell) of the best target, or (-1, -1)."""
+) -> tuple[int, int, int]:
+    """Returns (rank, cell) of the best target, or (-1, -1), and the count of
+    cells ``_uncontested_horizon`` kept (-1 if it did not keep any)."""
     steps = (-stride, stride, 1, -1)
     best1 = -1
     best2 = -1
@@ -104,6 +117,7 @@ def _search(
     # lesser target is known, stop there instead of searching the whole map.
     # Worked out when first needed (most searches end at an uncontested target).
     horizon = UNREACHED
+    kept_count = -1
     seen[start] = stamp
     queue[0] = start
     head = 0
@@ -144,28 +158,28 @@ def _search(
                 if m < nearest_other:
                     nearest_other = m
             if nearest_other >= d:
-                return 0, v
+                return 0, v, kept_count
             if hold > 0 and nearest_other >= min(d, hold + 1):
                 if best1 < 0:
                     best1 = v
-                    horizon = _uncontested_horizon(
-                        candidate, listed, listed_r, listed_c, start, stride, others_r, others_c
+                    horizon, kept_count = _uncontested_horizon(
+                        candidate, listed, start, stride, others_r, others_c, margin, kept
                     )
                     if d > horizon:
-                        return 1, v
+                        return 1, v, kept_count
             elif best2 < 0:
                 best2 = v
                 if hold == 0:
-                    horizon = _uncontested_horizon(
-                        candidate, listed, listed_r, listed_c, start, stride, others_r, others_c
+                    horizon, kept_count = _uncontested_horizon(
+                        candidate, listed, start, stride, others_r, others_c, margin, kept
                     )
                     if d > horizon:
-                        return 2, v
+                        return 2, v, kept_count
     if best1 >= 0:
-        return 1, best1
+        return 1, best1, kept_count
     if best2 >= 0:
-        return 2, best2
-    return -1, -1
+        return 2, best2, kept_count
+    return -1, -1, kept_count
 
 
 @njit(cache=True, nogil=True)
@@ -239,6 +253,50 @@ def nearest_manhattan(rows: np.ndarray, cols: np.ndarray, r: int, c: int) -> int
     return nearest
 
 
+class HorizonMemo:
+    """One agent's shortlist for the horizon pass of its target searches.
+
+    The pass over every uncovered cell costs as much as the search itself on a
+    large map, yet only cells near the agent's own Manhattan region can count.
+    A full pass keeps the cells that no other agent was more than ``MARGIN``
+    nearer to; until the agent and the others it was ranked against have
+    moved more than ``MARGIN`` between them (and while none of those stopped
+    working), no other cell can have become uncontested, so the shortlist
+    plus the cells that became uncovered since gives the same horizon.
+    """
+
+    MARGIN = 16
+
+    def __init__(self, rows: np.ndarray, cols: np.ndarray, working: np.ndarray, slot: int) -> None:
+        self._team = (rows, cols, working)
+        self._slot = slot
+        self.kept: np.ndarray | None = None
+        self._since = 0
+        self._at: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def shortlist(self, belief: MapBelief) -> np.ndarray | None:
+        """The cells to pass over, or None when a full pass is due."""
+        if self.kept is None or self._at is None:
+            return None
+        rows, cols, working = self._team
+        rows0, cols0, others0 = self._at
+        if (others0 & ~working).any():
+            return None  # one of them stopped working: cells it was nearer to are open
+        moved = np.abs(rows - rows0) + np.abs(cols - cols0)
+        if moved[others0].max(initial=0) + moved[self._slot] > self.MARGIN:
+            return None
+        return np.concatenate(
+            (self.kept, np.frombuffer(belief.added, dtype=np.int64)[self._since : belief.added_count])
+        )
+
+    def remember(self, kept: np.ndarray, belief: MapBelief) -> None:
+        rows, cols, working = self._team
+        others = working.copy()
+        others[self._slot] = False
+        self.kept, self._since = kept.copy(), belief.added_count
+        self._at = (rows.copy(), cols.copy(), others)
+
+
 class TargetSearch:
     """Scratch arrays for ``_search``, reused across calls on one belief."""
 
@@ -252,8 +310,7 @@ class TargetSearch:
         self.state = np.frombuffer(belief.state, dtype=np.uint8)
         self.candidate = np.frombuffer(belief.uncovered_mask, dtype=np.uint8)
         self.uncovered_list = np.frombuffer(belief.uncovered_list, dtype=np.int64)
-        self.uncovered_rows = np.frombuffer(belief.uncovered_rows, dtype=np.int64)
-        self.uncovered_cols = np.frombuffer(belief.uncovered_cols, dtype=np.int64)
+        self._kept = np.zeros(size, dtype=np.int64)
         self._pool_mask = np.zeros(size, dtype=np.uint8)
         self._blocked = np.zeros(size, dtype=np.uint8)
         self.home = np.frombuffer(belief.charger_dist, dtype=np.int32)
@@ -316,32 +373,35 @@ class TargetSearch:
         hold: int,
         excluded: list[int],
         pool: Iterable[int] | None = None,
+        memo: HorizonMemo | None = None,
     ) -> tuple[int, int, list[int]] | None:
         """The best target as ``(rank, cell, path)`` among ``pool`` (None: the
         uncovered cells), ranked against the ``others`` (rows, columns) agents;
-        ``excluded`` cells (claimed by other agents) are not candidates."""
+        ``excluded`` cells (claimed by other agents) are not candidates.
+        ``memo``: the searching agent's, when ``pool`` is None."""
         self.stamp += 1
+        margin = -1
         if pool is None:
             mask = self.candidate
-            n = self.belief.uncovered_count
-            listed = self.uncovered_list[:n]
-            listed_r, listed_c = self.uncovered_rows[:n], self.uncovered_cols[:n]
+            listed = memo.shortlist(self.belief) if memo is not None else None
+            if listed is None:
+                listed = self.uncovered_list[: self.belief.uncovered_count]
+                margin = HorizonMemo.MARGIN if memo is not None else -1
         else:
             mask = self._pool_mask
             pool = list(pool)
             mask[pool] = 1
             listed = np.array(pool, dtype=np.int64)
-            listed_r, listed_c = np.divmod(listed, self.belief.stride)
         saved = [(i, mask[i]) for i in excluded]
         for i, _ in saved:
             mask[i] = 0
         try:
-            rank, cell = _search(
+            rank, cell, kept = _search(
                 self.state,
                 mask,
                 listed,
-                listed_r,
-                listed_c,
+                margin,
+                self._kept,
                 self.home,
                 start,
                 self.belief.stride,
@@ -363,6 +423,8 @@ class TargetSearch:
                 mask[i] = value
             if pool is not None:
                 mask[pool] = 0
+        if kept >= 0 and memo is not None:
+            memo.remember(self._kept[:kept], self.belief)
         if rank < 0:
             return None
         return rank, cell, self._unwind(start, cell)

@@ -71,11 +71,13 @@ class PlannerSettings:
     #: passed on the way, or take a target that has become nearer); the paper
     #: travels to the chosen BTP. Only with the exact grid paths.
     replan_transit: bool = True
-    #: With ``replan_transit``: the target is searched for again once this share
-    #: of the way to it is travelled (0: at every step). A far target is seldom
-    #: bettered a step later, and each search covers the known map around the
-    #: agent out to the target.
+    #: With ``replan_transit``, a target farther than ``transit_recheck_beyond``
+    #: moves is searched for again only once this share of the way beyond that
+    #: distance is travelled (0: at every step). A far target is seldom bettered
+    #: a step later, and each search covers the known map around the agent out
+    #: to the target: on large maps, most of the planner's time.
     transit_recheck_share: float = 0.0
+    transit_recheck_beyond: int = 0
     #: Iterations an agent waits on another before asking it to make way.
     patience: int = 2
     #: Share of known free cells that are PRM nodes, and the connection radius in
