@@ -243,7 +243,11 @@ class Coordinator:
         consumption can bring cells judged out of range back into range.
         """
         witness = self._witness
-        if witness is None or not self.belief.uncovered_mask[witness] or not self._in_range(witness):
+        if (
+            witness is None
+            or not self.belief.uncovered_mask[witness]
+            or not self._in_range(witness)
+        ):
             # An uncovered cell in range, kept while it stays one: most calls need no scan.
             witness = self._witness = next(
                 (i for i in self.belief.uncovered if self._in_range(i)), None

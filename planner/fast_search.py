@@ -286,7 +286,10 @@ class HorizonMemo:
         if moved[others0].max(initial=0) + moved[self._slot] > self.MARGIN:
             return None
         return np.concatenate(
-            (self.kept, np.frombuffer(belief.added, dtype=np.int64)[self._since : belief.added_count])
+            (
+                self.kept,
+                np.frombuffer(belief.added, dtype=np.int64)[self._since : belief.added_count],
+            )
         )
 
     def remember(self, kept: np.ndarray, belief: MapBelief) -> None:
