@@ -1,0 +1,125 @@
+"""The compiled searches' shortcuts give exactly what the plain passes give."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from gcs.simulate import simulate
+from planner.belief import MapBelief
+from planner.fast_search import HorizonMemo, TargetSearch, _uncontested_horizon
+from sitl_mock import mapgen
+from tests.checks import make_mission
+
+SIDE = 40
+
+
+def _horizon(belief: MapBelief, cells: np.ndarray, slot: int, rows, cols, working) -> int:
+    others = working.copy()
+    others[slot] = False
+    start = belief.index((int(rows[slot]), int(cols[slot])))
+    candidate = np.frombuffer(belief.uncovered_mask, dtype=np.uint8)
+    horizon, _ = _uncontested_horizon(
+        candidate, cells, start, belief.stride, rows[others], cols[others], -1, cells
+    )
+    return horizon
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    agents=st.integers(2, 8),
+    moves=st.integers(0, HorizonMemo.MARGIN + 4),
+)
+def test_horizon_shortlist_gives_the_full_pass_horizon(seed: int, agents: int, moves: int) -> None:
+    """After the team moves (within the margin or beyond it), cells are covered and
+    found and agents start working, the shortlist's horizon is the full pass's, or
+    the memo asks for a full pass."""
+    rng = np.random.default_rng(seed)
+    belief = MapBelief((SIDE, SIDE), (0, 0))
+    for r, c in rng.integers(0, SIDE, size=(300, 2)):
+        belief.mark_free(belief.index((int(r), int(c))))
+    rows = rng.integers(0, SIDE, agents).astype(np.int64)
+    cols = rng.integers(0, SIDE, agents).astype(np.int64)
+    working = rng.random(agents) < 0.8
+    working[0] = True
+    memo = HorizonMemo(rows, cols, working, 0)
+    search = TargetSearch(belief)
+    listed = search.uncovered_list[: belief.uncovered_count]
+    others = working.copy()
+    others[0] = False
+    start = belief.index((int(rows[0]), int(cols[0])))
+    _, kept = _uncontested_horizon(
+        search.candidate, listed, start, belief.stride, rows[others], cols[others], 16, search._kept
+    )
+    if kept < 0:
+        return  # nobody else at work: no shortlist is kept (the horizon is unbounded)
+    memo.remember(search._kept[:kept], belief)
+
+    for _ in range(moves):  # every agent takes a step, some cells change
+        rows[:] = np.clip(rows + rng.integers(-1, 2, agents), 0, SIDE - 1)
+        cols[:] = np.clip(cols + rng.integers(-1, 2, agents), 0, SIDE - 1)
+    for i in list(belief.uncovered)[: int(rng.integers(0, 40))]:
+        belief.cover(belief.cell(i), 1)
+    for r, c in rng.integers(0, SIDE, size=(int(rng.integers(0, 40)), 2)):
+        belief.mark_free(belief.index((int(r), int(c))))
+    working |= rng.random(agents) < 0.2  # idle agents back at work: only more rivals
+
+    shortlist = memo.shortlist(belief)
+    full = search.uncovered_list[: belief.uncovered_count]
+    if shortlist is not None:
+        assert _qualifying(belief, full, rows, cols, working) <= set(shortlist.tolist())
+        assert _horizon(belief, shortlist, 0, rows, cols, working) == _horizon(
+            belief, full, 0, rows, cols, working
+        )
+
+
+def _qualifying(belief: MapBelief, cells: np.ndarray, rows, cols, working) -> set[int]:
+    """The cells agent 0 is no farther from (Manhattan) than any other working agent."""
+    found = set()
+    for v in cells.tolist():
+        r, c = belief.cell(v)
+        mine = abs(r - rows[0]) + abs(c - cols[0])
+        rivals = [abs(r - rows[j]) + abs(c - cols[j]) for j in range(1, len(rows)) if working[j]]
+        if all(m >= mine for m in rivals):
+            found.add(v)
+    return found
+
+
+def test_memo_asks_for_a_full_pass_when_a_rival_stops_working() -> None:
+    belief = MapBelief((SIDE, SIDE), (0, 0))
+    belief.mark_free(belief.index((0, 1)))
+    rows = np.array([0, 10], dtype=np.int64)
+    cols = np.array([0, 10], dtype=np.int64)
+    working = np.array([True, True])
+    memo = HorizonMemo(rows, cols, working, 0)
+    memo.remember(np.zeros(0, dtype=np.int64), belief)
+    assert memo.shortlist(belief) is not None
+    working[1] = False
+    assert memo.shortlist(belief) is None
+
+
+def _tracks_digest(grid, agents: int) -> str:
+    energy = 80.0 / (4 * (grid.shape[0] + grid.shape[1]))
+    result = simulate(make_mission(grid, agents, energy_per_m_pct=energy))
+    assert result.complete
+    digest = hashlib.sha256()
+    for agent in result.agents:
+        digest.update(json.dumps(agent.track).encode())
+    return digest.hexdigest()
+
+
+@pytest.mark.parametrize(
+    ("grid", "agents"),
+    [(mapgen.open_field(60, 60, 2), 12), (mapgen.rooms(60, 60, 5), 9)],
+    ids=["open60-12", "rooms60-9"],
+)
+def test_plans_are_the_same_without_the_shortlist(monkeypatch, grid, agents: int) -> None:
+    with_memo = _tracks_digest(grid, agents)
+    monkeypatch.setattr(HorizonMemo, "shortlist", lambda self, belief: None)
+    assert _tracks_digest(grid, agents) == with_memo
