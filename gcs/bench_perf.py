@@ -24,7 +24,7 @@ import platform
 import resource
 import tempfile
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
@@ -86,6 +86,12 @@ def register_perf(which: argparse._SubParsersAction) -> None:  # type: ignore[ty
         metavar="X",
         help="the mock fleet's speed-up in the live runs (default 2)",
     )
+    p.add_argument(
+        "--far-transit-recheck",
+        type=int,
+        metavar="N",
+        help="the planner option far_transit_recheck for the planner cases (default: off)",
+    )
     p.add_argument("--skip-planner", action="store_true", help="only the live runs")
     p.add_argument("--skip-live", action="store_true", help="only the planner cases")
     p.add_argument("--json", type=Path, help="also write the figures to this JSON file")
@@ -110,6 +116,7 @@ class PlannerCase:
     kind: str
     size: int
     agents: int
+    far_transit_recheck: int | None = None  # the mission's planner option
 
 
 def case_mission(grid: GridMap, agents: int, name: str, connections: list[str] | None = None):
@@ -154,6 +161,8 @@ def _run_case(case: PlannerCase, out: Connection) -> None:
     t0 = time.perf_counter()
     grid = GENERATORS[case.kind](case.size, case.size, MAP_SEED)
     mission = case_mission(grid, case.agents, f"{case.kind}{case.size}")
+    planner = replace(mission.planner, far_transit_recheck=case.far_transit_recheck)
+    mission = replace(mission, planner=planner)
     setup_s = time.perf_counter() - t0
     result = simulate(mission)
     steps = max(1, result.iterations * case.agents)
@@ -199,8 +208,11 @@ def run_planner_case(case: PlannerCase, limit_s: float) -> dict[str, Any]:
         receive.close()
 
 
-def planner_table(rows: list[dict[str, Any]]) -> Table:
-    table = Table(title="offline planner (one process per case)")
+def planner_table(rows: list[dict[str, Any]], far_transit_recheck: int | None = None) -> Table:
+    title = "offline planner (one process per case)"
+    if far_transit_recheck:
+        title += f", far_transit_recheck {far_transit_recheck}"
+    table = Table(title=title)
     for name in (
         "map",
         "free cells",
@@ -363,6 +375,8 @@ def run_perf(args: argparse.Namespace) -> int:
         raise UsageError(f"--kinds: choose from {', '.join(GENERATORS)}, got {args.kinds!r}")
     if args.live_speedup <= 0 or args.case_limit <= 0:
         raise UsageError("--live-speedup and --case-limit must be positive")
+    if args.far_transit_recheck is not None and args.far_transit_recheck < 1:
+        raise UsageError("--far-transit-recheck must be a positive number of moves")
     console = output_console(quiet=False)
     progress = Console(stderr=True)
     figures: dict[str, Any] = {"machine": platform.platform(), "python": platform.python_version()}
@@ -373,13 +387,14 @@ def run_perf(args: argparse.Namespace) -> int:
             for size in sizes:
                 for n in agents:
                     progress.print(f"planner: {kind} {size}x{size}, {n} agents ...")
-                    row = run_planner_case(PlannerCase(kind, size, n), args.case_limit)
+                    case = PlannerCase(kind, size, n, args.far_transit_recheck)
+                    row = run_planner_case(case, args.case_limit)
                     ok = (
                         ok and "error" not in row and row["coverage_pct"] >= 100 and not row["lost"]
                     )
                     rows.append(row)
         figures["planner"] = rows
-        console.print(planner_table(rows))
+        console.print(planner_table(rows, args.far_transit_recheck))
     if not args.skip_live:
         rows = []
         for n in vehicles:

@@ -105,6 +105,9 @@ class PlannerSpec:
     charging_slots: int | None = None  # None: unlimited, as in the paper
     path_planner: PathPlanner = PathPlanner.GRID
     max_iterations: int | None = None  # None: the caller decides
+    #: A target more than this many moves away is searched for again only once half
+    #: the way beyond it is travelled (None: at every step; PlannerSettings).
+    far_transit_recheck: int | None = None
 
 
 @dataclass(frozen=True)
@@ -168,6 +171,7 @@ _PLANNER_KEYS = (
     "charging_slots",
     "path_planner",
     "max_iterations",
+    "far_transit_recheck",
 )
 
 
@@ -409,6 +413,7 @@ class _Loader:
                 section, "path_planner", "planner", PathPlanner, default.path_planner
             ),
             max_iterations=self.optional_count(section, "max_iterations", "planner"),
+            far_transit_recheck=self.optional_count(section, "far_transit_recheck", "planner"),
         )
 
     # ----------------------------------------------------------------- helpers

@@ -77,15 +77,16 @@ class Pace:
 def planner_settings(mission: Mission, seed: int = 0, **strategy: object) -> PlannerSettings:
     """The planner settings a mission asks for; ``strategy`` overrides the rest."""
     spec = mission.planner
-    return PlannerSettings(
-        cell_size_m=mission.cell_size_m,
-        reserve_pct=spec.reserve_pct,
-        charge_pct_per_step=spec.charge_pct_per_step,
-        charging_slots=spec.charging_slots,
-        path_planner=PathPlannerKind(spec.path_planner),
-        seed=seed,
-        **strategy,  # type: ignore[arg-type]
-    )
+    settings: dict[str, object] = {
+        "cell_size_m": mission.cell_size_m,
+        "reserve_pct": spec.reserve_pct,
+        "charge_pct_per_step": spec.charge_pct_per_step,
+        "charging_slots": spec.charging_slots,
+        "path_planner": PathPlannerKind(spec.path_planner),
+        "far_transit_recheck": spec.far_transit_recheck or 0,
+        "seed": seed,
+    }
+    return PlannerSettings(**(settings | strategy))  # type: ignore[arg-type]
 
 
 def prior_map(mission: Mission) -> np.ndarray | None:

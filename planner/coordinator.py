@@ -428,24 +428,24 @@ class Coordinator:
                 self._events.append(PlannerEvent(EventKind.CHARGED, a.id, self.belief.charger))
                 return CHARGE
             return self._follow(a, self.belief.charger_index)
-        nxt = self._bm_next(a)
         if a.mode == AgentMode.TRANSIT:
             assert a.goal is not None
             # Re-deciding needs consistent shortest paths: with the roadmap a
             # fresh path from one step on can be longer than the rest of the
             # old one, and the agent would turn back before every arrival.
             replan = self.settings.replan_transit and self._roadmap is None
-            if (
+            if not (
                 a.index == a.goal
                 or a.goal not in self.belief.uncovered
-                or (replan and (nxt is not None or a.recheck_in <= 0))
+                # An uncovered cell beside the way is swept at once.
+                or (replan and (a.recheck_in <= 0 or self._bm_next(a) is not None))
             ):
-                a.was_heading_for = a.goal
-                self._drop_claim(a)
-                a.mode = AgentMode.EXPLORE
-            else:
                 a.recheck_in -= 1
                 return self._follow(a, a.goal)
+            a.was_heading_for = a.goal
+            self._drop_claim(a)
+            a.mode = AgentMode.EXPLORE
+        nxt = self._bm_next(a)
         if nxt is not None:
             a.was_heading_for = None
             if self._can_afford(a, 1, nxt):
@@ -568,8 +568,8 @@ class Coordinator:
                 path = old_path
             self._claims[goal] = a.id
             a.goal, a.path, a.mode = goal, path, AgentMode.TRANSIT
-            far = len(path) - self.settings.transit_recheck_beyond
-            a.recheck_in = int(far * self.settings.transit_recheck_share) if far > 0 else 0
+            if self.settings.far_transit_recheck:
+                a.recheck_in = max(0, (len(path) - self.settings.far_transit_recheck) // 2)
             kind = EventKind.SAFETY_NET if tier == _Tier.NET else EventKind.TARGET
             if tier == _Tier.NET:
                 self.safety_net_fires += 1

@@ -71,13 +71,12 @@ class PlannerSettings:
     #: passed on the way, or take a target that has become nearer); the paper
     #: travels to the chosen BTP. Only with the exact grid paths.
     replan_transit: bool = True
-    #: With ``replan_transit``, a target farther than ``transit_recheck_beyond``
-    #: moves is searched for again only once this share of the way beyond that
-    #: distance is travelled (0: at every step). A far target is seldom bettered
-    #: a step later, and each search covers the known map around the agent out
-    #: to the target: on large maps, most of the planner's time.
-    transit_recheck_share: float = 0.0
-    transit_recheck_beyond: int = 0
+    #: With ``replan_transit``: N > 0 searches again for a target more than N
+    #: moves away only once half the way beyond N is travelled (0: at every
+    #: step). Each search covers the known map around the agent out to the
+    #: target, so on large maps these searches are most of the planner's time;
+    #: the plans change (shorter on some maps, longer on others: see README).
+    far_transit_recheck: int = 0
     #: Iterations an agent waits on another before asking it to make way.
     patience: int = 2
     #: Share of known free cells that are PRM nodes, and the connection radius in
@@ -97,3 +96,5 @@ class PlannerSettings:
             raise ValueError("charge_pct_per_step must be positive")
         if self.charging_slots is not None and self.charging_slots < 1:
             raise ValueError("charging_slots must be at least 1")
+        if self.far_transit_recheck < 0:
+            raise ValueError("far_transit_recheck must not be negative")

@@ -34,6 +34,15 @@ def test_planner_cases_print_and_write_their_figures(tmp_path: Path, capsys) -> 
     assert "offline planner" in capsys.readouterr().out
 
 
+def test_the_planner_option_reaches_the_cases(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "perf.json"
+    args = ["bench", "perf", "--sizes", "24", "--agents", "3", "--kinds", "open", "--skip-live"]
+    assert main([*args, "--far-transit-recheck", "4", "--json", str(out)]) == 0
+    (row,) = json.loads(out.read_text())["planner"]
+    assert row["far_transit_recheck"] == 4 and row["coverage_pct"] == 100.0
+    assert "far_transit_recheck 4" in capsys.readouterr().out
+
+
 def test_a_case_over_its_limit_is_reported_not_waited_for(tmp_path: Path) -> None:
     out = tmp_path / "perf.json"
     args = ["bench", "perf", "--sizes", "300", "--agents", "50", "--kinds", "rooms"]
@@ -49,6 +58,7 @@ def test_a_case_over_its_limit_is_reported_not_waited_for(tmp_path: Path) -> Non
         (["--sizes", "ten"], "--sizes: expected comma-separated numbers, got 'ten'"),
         (["--agents", "0"], "--agents: expected positive numbers, got '0'"),
         (["--kinds", "caves"], "--kinds: choose from rooms, open, got 'caves'"),
+        (["--far-transit-recheck", "0"], "--far-transit-recheck must be a positive number"),
     ],
 )
 def test_bad_options_are_refused(args: list[str], message: str, capsys) -> None:

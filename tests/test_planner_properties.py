@@ -95,9 +95,10 @@ small_maps = st.builds(
     bm_spread=st.booleans(),
     hold=st.sampled_from([0, 5]),
     prm=st.booleans(),
+    far=st.sampled_from([0, 4, 16]),
 )
 def test_every_strategy_keeps_the_invariants(
-    grid, agents, bm, targets, spread, replan, bm_spread, hold, prm
+    grid, agents, bm, targets, spread, replan, bm_spread, hold, prm, far
 ):
     mission = make_mission(grid, agents, _energy_for(grid, 0.5))
     settings_ = planner_settings(
@@ -108,6 +109,7 @@ def test_every_strategy_keeps_the_invariants(
         replan_transit=replan,
         bm_spread=bm_spread,
         hold_radius=hold,
+        far_transit_recheck=far,
     )
     if prm:
         settings_ = dataclasses.replace(settings_, path_planner=PathPlannerKind.PRM)

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from planner import btp
 from planner.belief import UNREACHED, MapBelief
-from planner.coordinator import ActionKind, AgentMode, Coordinator
+from planner.coordinator import ActionKind, AgentMode, Coordinator, EventKind
 from planner.grid import MOVES, NEIGHBOURS, Cell, CellState, Direction
 from planner.paths import bfs_distances, nearest, path_to_charger, shortest_path
 from planner.prm import Roadmap, line_cells
@@ -342,3 +342,41 @@ def test_an_agent_walled_in_by_a_lost_one_gives_up() -> None:
     c.mark_lost(1)
     assert c.decide(2).kind == ActionKind.WAIT
     assert c.mode(2) == AgentMode.DONE and c.finished
+
+
+def _walk_to_the_far_end(far_transit_recheck: int) -> tuple[int, int]:
+    """Searches (target events) and moves of one agent crossing a long corridor whose
+    only uncovered cell is at the far end."""
+    length = 60
+    known = np.full((1, length), int(FREE), dtype=np.int8)
+    covered = np.ones((1, length), dtype=bool)
+    covered[0, -1] = False
+    settings_ = PlannerSettings(far_transit_recheck=far_transit_recheck)
+    coordinator = Coordinator((1, length), (0, 0), [AgentSpec(1, 0.0)], settings_)
+    coordinator.restore(known, covered, [])
+    cell = (0, 0)
+    readings = {d: OBST if d.of(cell)[0] != 0 else FREE for d in NEIGHBOURS}
+    coordinator.observe(1, cell, readings, 100.0)
+    searches = moves = 0
+    while coordinator.belief.covered_count < length:
+        action = coordinator.decide(1)
+        searches += sum(e.kind == EventKind.TARGET for e in coordinator.drain_events())
+        assert action.kind == ActionKind.MOVE and action.to is not None
+        cell = action.to
+        moves += 1
+        readings = {
+            d: FREE if d.of(cell)[0] == 0 and 0 <= d.of(cell)[1] < length else OBST
+            for d in NEIGHBOURS
+        }
+        coordinator.observe(1, cell, readings, 100.0)
+    return searches, moves
+
+
+def test_far_targets_are_searched_for_again_less_often() -> None:
+    every_step, moves = _walk_to_the_far_end(0)
+    assert moves == 59 and every_step == 58  # the last move sweeps a neighbour: no search
+    fewer, same_moves = _walk_to_the_far_end(8)
+    assert same_moves == moves
+    # Searches 59, 33, 20, 13, 10 and 8 moves from the end (half the way beyond 8
+    # between two), then at every step within 8 until the end is a neighbour.
+    assert fewer == 12
