@@ -7,13 +7,12 @@ from on a full battery, so they are never silently skipped.
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
 
 from gcs.mission import Mission
-from planner.grid import MOVES, Cell
+from planner.grid import Cell
 
 
 @dataclass(frozen=True)
@@ -33,19 +32,27 @@ class RangeCheck:
 
 
 def charger_distances(mission: Mission) -> np.ndarray:
-    """Moves from the charger to every free cell over the true map (-1: unreachable)."""
+    """Moves from the charger to every free cell over the true map (-1: unreachable).
+
+    Breadth-first, one whole distance level at a time over flat indices of the
+    map with an obstacle border, so that a million cells take a fraction of a second.
+    """
     grid = mission.map
-    dist = np.full(grid.shape, -1, dtype=np.int64)
-    dist[mission.charger] = 0
-    queue: deque[Cell] = deque([mission.charger])
-    while queue:
-        cell = queue.popleft()
-        for d in MOVES:
-            nxt = d.of(cell)
-            if grid.is_free(nxt) and dist[nxt] < 0:
-                dist[nxt] = dist[cell] + 1
-                queue.append(nxt)
-    return dist
+    rows, cols = grid.shape
+    stride = cols + 2
+    free = np.pad(~grid.obstacle, 1, constant_values=False).ravel()
+    dist = np.full(free.size, -1, dtype=np.int64)
+    steps = np.array([-stride, stride, 1, -1])
+    level = np.array([(mission.charger[0] + 1) * stride + mission.charger[1] + 1])
+    if not free[level[0]]:
+        level = level[:0]
+    moves = 0
+    while level.size:
+        dist[level] = moves
+        ahead = (level[:, None] + steps).ravel()
+        level = np.unique(ahead[free[ahead] & (dist[ahead] < 0)])
+        moves += 1
+    return dist.reshape(rows + 2, stride)[1:-1, 1:-1].copy()
 
 
 def check_range(mission: Mission, resume_pct: float = 100.0) -> RangeCheck:

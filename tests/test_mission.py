@@ -20,7 +20,10 @@ from gcs.mission import (
     default_connection,
     load_mission,
 )
+from gcs.preflight import charger_distances
+from sitl_mock import mapgen
 from sitl_mock.gridmap import GridMap
+from tests.checks import make_mission
 
 MISSIONS = Path(__file__).resolve().parent.parent / "missions"
 
@@ -357,3 +360,18 @@ def test_png_map_needs_a_charger(tmp_path: Path) -> None:
     assert str(info.value) == (
         f"{path}: map: no charging pad 'C' (mark one in the map or set 'charger')"
     )
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_charger_distances_are_breadth_first_moves_over_the_true_map(seed: int) -> None:
+    grid = [mapgen.rooms, mapgen.caves, mapgen.open_field][seed % 3](23, 31, seed)
+    expected = np.full(grid.shape, -1)
+    expected[grid.charger] = 0
+    queue = deque([grid.charger])
+    while queue:
+        r, c = queue.popleft()
+        for nr, nc in ((r - 1, c), (r + 1, c), (r, c - 1), (r, c + 1)):
+            if grid.is_free((nr, nc)) and expected[nr, nc] < 0:
+                expected[nr, nc] = expected[r, c] + 1
+                queue.append((nr, nc))
+    assert (charger_distances(make_mission(grid, 1)) == expected).all()
