@@ -168,9 +168,9 @@ class MapBelief:
         if i == self.charger_index:
             dist[i] = 0
         else:
-            best = min(
-                (dist[i + s] for s in self.steps if self.state[i + s] == _FREE), default=UNREACHED
-            )
+            # Cells that are not free are never reached: no need to look at their state.
+            up, down, right, left = self.steps
+            best = min(dist[i + up], dist[i + down], dist[i + right], dist[i + left])
             if best >= UNREACHED:
                 return
             dist[i] = best + 1
