@@ -11,6 +11,8 @@ holds it). A BTP leaves the stacks as soon as any agent covers it (eq. 3).
 
 from __future__ import annotations
 
+from functools import cache
+
 from planner.belief import MapBelief
 from planner.grid import CellState, Direction
 
@@ -25,21 +27,16 @@ _SIDES: dict[Direction, tuple[Direction, Direction]] = {
 }
 
 
-def _offsets(heading: Direction, stride: int) -> tuple[int, tuple[int, int]]:
+@cache
+def _offsets(heading: Direction, stride: int) -> tuple[int, tuple[int, ...]]:
     """Flat offsets of the cell ahead and of the two side cells."""
     return heading.dr * stride + heading.dc, tuple(s.dr * stride + s.dc for s in _SIDES[heading])
-
-
-_OFFSETS: dict[tuple[Direction, int], tuple[int, tuple[int, int]]] = {}
 
 
 def detect(belief: MapBelief, index: int, heading: Direction) -> list[int]:
     """BTPs seen by an agent at flat ``index`` that has just moved towards ``heading``."""
     state, covered, stride = belief.state, belief.covered, belief.stride
-    key = (heading, stride)
-    if key not in _OFFSETS:
-        _OFFSETS[key] = _offsets(heading, stride)
-    ahead, sides = _OFFSETS[key]
+    ahead, sides = _offsets(heading, stride)
     found = []
     for step in sides:
         x = index + step
