@@ -158,6 +158,35 @@ def _draw_btps(ax: Axes, result: RunResult, colours: AgentColours) -> None:
     )
 
 
+#: Legend rows (8 pt text) that fit in an inch of figure height.
+_LEGEND_ROWS_PER_INCH = 5.0
+
+
+#: Width of one legend column of "agent NN" entries.
+_LEGEND_COLUMN_INCHES = 1.3
+
+
+def _legend_columns(entries: int, height_in: float) -> int:
+    rows = max(1, int(height_in * _LEGEND_ROWS_PER_INCH))
+    return -(-entries // rows)
+
+
+def _side_legend(ax: Axes, handles: list | None = None) -> None:
+    """A legend to the right of the axes, in as many columns as the figure's
+    height needs: a fleet of 64 in one column is taller than the figure, and
+    the layout then has no room left for the axes."""
+    if handles is None:
+        handles, _ = ax.get_legend_handles_labels()
+    ax.legend(
+        handles=handles,
+        loc="upper left",
+        bbox_to_anchor=(1.01, 1.0),
+        fontsize=8,
+        frameon=False,
+        ncols=_legend_columns(len(handles), ax.figure.get_figheight()),
+    )
+
+
 def _coverage_legend(ax: Axes, result: RunResult, colours: AgentColours) -> None:
     handles: list = [
         Line2D(
@@ -198,16 +227,17 @@ def _coverage_legend(ax: Axes, result: RunResult, colours: AgentColours) -> None
     uncovered = (np.asarray(result.belief) == CellState.FREE) & ~np.asarray(result.covered, bool)
     if uncovered.any():
         handles.append(Patch(facecolor=UNCOVERED_RGB, edgecolor="0.3", label="free, uncovered"))
-    ax.legend(
-        handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False
-    )
+    _side_legend(ax, handles)
 
 
 def coverage_figure(result: RunResult, path: Path) -> Path:
     """Paper Figure 7: the final belief map with every agent's track and the BTPs."""
     rows, cols = result.shape
     scale = MAP_INCHES / max(rows, cols)
-    fig = _new_figure((cols * scale + 2.0, max(rows * scale + 0.6, 3.0)))
+    height = max(rows * scale + 0.6, 3.0)
+    # Room for the legend: the agents, charger, BTP and up to three map colours.
+    extra = _legend_columns(len(result.agents) + 6, height) - 1
+    fig = _new_figure((cols * scale + 2.0 + extra * _LEGEND_COLUMN_INCHES, height))
     ax = fig.add_subplot()
     ax.imshow(
         map_rgb(result),
@@ -328,7 +358,7 @@ def battery_figure(result: RunResult, path: Path) -> Path:
     ax.set_xlim(left=0)
     ax.set_xlabel("iteration")
     ax.set_ylabel("battery [%]")
-    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    _side_legend(ax)
     ax.set_title(_title(result, "battery"))
     return _save(fig, path)
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +15,10 @@ from rich.console import Console
 from gcs.figures import write_figures
 from gcs.report import print_summary, report_dict, summary_rows, write_report
 from gcs.result import AgentTrace, BtpRecord, RunResult
+from gcs.simulate import simulate
 from planner.grid import Cell, CellState
+from sitl_mock import mapgen
+from tests.checks import make_mission
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 MAP = (
@@ -186,3 +190,13 @@ def test_empty_run_still_reports_and_draws(tmp_path: Path) -> None:
     report = report_dict(result)
     assert report["us_per_agent_step"] == 0.0 and report["makespan_m"] == 0.0
     assert all(p.stat().st_size > 0 for p in write_figures(result, tmp_path))
+
+
+def test_figures_of_a_large_fleet_keep_their_axes(tmp_path: Path) -> None:
+    """64 agents' legend entries wrap into columns instead of crowding out the plot."""
+    grid = mapgen.open_field(14, 14, 1)
+    result = simulate(make_mission(grid, 64))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # "constrained_layout not applied" and the like
+        paths = write_figures(result, tmp_path)
+    assert len(paths) == 4
