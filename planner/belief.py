@@ -52,7 +52,8 @@ class MapBelief:
         self.charger = charger
         self.charger_index = self.index(charger)
         self.steps = (-self.stride, self.stride, 1, -1)  # N, S, E, W
-        self._offset = {d: dr * self.stride + dc for d, (dr, dc) in _DELTA.items()}
+        #: Flat index offset of each of the 8 neighbours.
+        self.offset = {d: dr * self.stride + dc for d, (dr, dc) in _DELTA.items()}
         self.covered_count = 0
         self.free_count = 0
         #: Flat indices of known free cells not covered yet (the frontier), the
@@ -103,7 +104,7 @@ class MapBelief:
     def sense(self, cell: Cell, readings: Mapping[Direction, CellState]) -> list[int]:
         """Record what an agent at ``cell`` sensed; return newly known free cells."""
         newly_free: list[int] = []
-        state, offset = self.state, self._offset
+        state, offset = self.state, self.offset
         here = self.index(cell)
         for direction, observed in readings.items():
             # Neighbours off the map fall on the border, which is known (obstacle).

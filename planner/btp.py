@@ -11,8 +11,6 @@ holds it). A BTP leaves the stacks as soon as any agent covers it (eq. 3).
 
 from __future__ import annotations
 
-from functools import cache
-
 from planner.belief import MapBelief
 from planner.grid import CellState, Direction
 
@@ -27,19 +25,13 @@ _SIDES: dict[Direction, tuple[Direction, Direction]] = {
 }
 
 
-@cache
-def _offsets(heading: Direction, stride: int) -> tuple[int, tuple[int, ...]]:
-    """Flat offsets of the cell ahead and of the two side cells."""
-    return heading.dr * stride + heading.dc, tuple(s.dr * stride + s.dc for s in _SIDES[heading])
-
-
 def detect(belief: MapBelief, index: int, heading: Direction) -> list[int]:
     """BTPs seen by an agent at flat ``index`` that has just moved towards ``heading``."""
-    state, covered, stride = belief.state, belief.covered, belief.stride
-    ahead, sides = _offsets(heading, stride)
+    state, covered, offset = belief.state, belief.covered, belief.offset
+    ahead = offset[heading]
     found = []
-    for step in sides:
-        x = index + step
+    for side in _SIDES[heading]:
+        x = index + offset[side]
         if state[x] != _FREE or covered[x]:
             continue
         if state[x + ahead] == _OBSTACLE or state[x - ahead] == _OBSTACLE:
