@@ -25,7 +25,7 @@ import numpy as np
 
 from planner import btp
 from planner.belief import UNREACHED, MapBelief
-from planner.fast_search import HorizonMemo, TargetSearch, nearest_manhattan
+from planner.fast_search import HorizonMemo, TargetSearch, Team, nearest_manhattan
 from planner.grid import MOVES, Cell, CellState, Direction, manhattan
 from planner.paths import path_to_charger, path_to_known
 from planner.prm import Roadmap
@@ -116,28 +116,13 @@ _PRIORITY = {AgentMode.RETURN: 3, AgentMode.HOMING: 2, AgentMode.TRANSIT: 1}
 _WORKING = frozenset({AgentMode.EXPLORE, AgentMode.TRANSIT})
 
 
-class _Team:
-    """Where every agent is and which are working (sweeping or on the way to sweep),
-    as arrays the compiled searches read without building lists each decision."""
-
-    def __init__(self, size: int, at: Cell) -> None:
-        self.rows = np.full(size, at[0], dtype=np.int64)
-        self.cols = np.full(size, at[1], dtype=np.int64)
-        self.working = np.ones(size, dtype=np.bool_)
-
-    def others(self, slot: int) -> tuple[np.ndarray, np.ndarray]:
-        """Rows and columns of the working agents other than ``slot``."""
-        mask = self.working.copy()
-        mask[slot] = False
-        return self.rows[mask], self.cols[mask]
-
-
 @dataclass
 class _Agent:
     spec: AgentSpec
     index: int
-    team: _Team
+    team: Team
     slot: int
+    memo: HorizonMemo
     battery_pct: float = 100.0
     _mode: AgentMode = AgentMode.EXPLORE
     path: list[int] = field(default_factory=list)  # remaining moves, next first
@@ -196,15 +181,12 @@ class Coordinator:
         if prior is not None:
             self._load_prior(prior)
         self.stacks = btp.BtpStacks()
-        self._team = _Team(len(agents), charger)
+        self._team = Team(len(agents), charger)
         self._agents = {
-            a.id: _Agent(a, self.belief.charger_index, self._team, slot)
+            a.id: _Agent(
+                a, self.belief.charger_index, self._team, slot, HorizonMemo(self._team, slot)
+            )
             for slot, a in enumerate(agents)
-        }
-        team = self._team
-        self._memos = {
-            a.id: HorizonMemo(team.rows, team.cols, team.working, a.slot)
-            for a in self._agents.values()
         }
         self._occupant: dict[int, int] = {}
         self._claims: dict[int, int] = {}  # target cell -> agent chasing it
@@ -608,7 +590,7 @@ class Coordinator:
             hold,
             list(self._claims),
             pool,
-            self._memos[a.id] if pool is None else None,
+            a.memo if pool is None else None,
         )
         if found is None:
             return None

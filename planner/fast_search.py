@@ -253,6 +253,28 @@ def nearest_manhattan(rows: np.ndarray, cols: np.ndarray, r: int, c: int) -> int
     return nearest
 
 
+class Team:
+    """Where every agent is and which are working (sweeping or on the way to sweep),
+    as arrays the compiled searches read without building lists each decision.
+    Agents are numbered by slot."""
+
+    def __init__(self, size: int, at: tuple[int, int]) -> None:
+        self.rows = np.full(size, at[0], dtype=np.int64)
+        self.cols = np.full(size, at[1], dtype=np.int64)
+        self.working = np.ones(size, dtype=np.bool_)
+
+    def others_mask(self, slot: int) -> np.ndarray:
+        """The working agents other than ``slot``."""
+        mask = self.working.copy()
+        mask[slot] = False
+        return mask
+
+    def others(self, slot: int) -> tuple[np.ndarray, np.ndarray]:
+        """Rows and columns of the working agents other than ``slot``."""
+        mask = self.others_mask(slot)
+        return self.rows[mask], self.cols[mask]
+
+
 class HorizonMemo:
     """One agent's shortlist for the horizon pass of its target searches.
 
@@ -267,8 +289,8 @@ class HorizonMemo:
 
     MARGIN = 16
 
-    def __init__(self, rows: np.ndarray, cols: np.ndarray, working: np.ndarray, slot: int) -> None:
-        self._team = (rows, cols, working)
+    def __init__(self, team: Team, slot: int) -> None:
+        self._team = team
         self._slot = slot
         self.kept: np.ndarray | None = None
         self._since = 0
@@ -278,26 +300,20 @@ class HorizonMemo:
         """The cells to pass over, or None when a full pass is due."""
         if self.kept is None or self._at is None:
             return None
-        rows, cols, working = self._team
+        team = self._team
         rows0, cols0, others0 = self._at
-        if (others0 & ~working).any():
+        if (others0 & ~team.working).any():
             return None  # one of them stopped working: cells it was nearer to are open
-        moved = np.abs(rows - rows0) + np.abs(cols - cols0)
+        moved = np.abs(team.rows - rows0) + np.abs(team.cols - cols0)
         if moved[others0].max(initial=0) + moved[self._slot] > self.MARGIN:
             return None
-        return np.concatenate(
-            (
-                self.kept,
-                np.frombuffer(belief.added, dtype=np.int64)[self._since : belief.added_count],
-            )
-        )
+        added = np.frombuffer(belief.added, dtype=np.int64)[self._since : belief.added_count]
+        return np.concatenate((self.kept, added))
 
     def remember(self, kept: np.ndarray, belief: MapBelief) -> None:
-        rows, cols, working = self._team
-        others = working.copy()
-        others[self._slot] = False
+        team = self._team
         self.kept, self._since = kept.copy(), belief.added_count
-        self._at = (rows.copy(), cols.copy(), others)
+        self._at = (team.rows.copy(), team.cols.copy(), team.others_mask(self._slot))
 
 
 class TargetSearch:

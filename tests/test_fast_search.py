@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from gcs.simulate import simulate
 from planner.belief import MapBelief
-from planner.fast_search import HorizonMemo, TargetSearch, _uncontested_horizon
+from planner.fast_search import HorizonMemo, TargetSearch, Team, _uncontested_horizon
 from sitl_mock import mapgen
 from tests.checks import make_mission
 
@@ -44,11 +44,13 @@ def test_horizon_shortlist_gives_the_full_pass_horizon(seed: int, agents: int, m
     belief = MapBelief((SIDE, SIDE), (0, 0))
     for r, c in rng.integers(0, SIDE, size=(300, 2)):
         belief.mark_free(belief.index((int(r), int(c))))
-    rows = rng.integers(0, SIDE, agents).astype(np.int64)
-    cols = rng.integers(0, SIDE, agents).astype(np.int64)
-    working = rng.random(agents) < 0.8
+    team = Team(agents, (0, 0))
+    rows, cols, working = team.rows, team.cols, team.working  # changed in place below
+    rows[:] = rng.integers(0, SIDE, agents)
+    cols[:] = rng.integers(0, SIDE, agents)
+    working[:] = rng.random(agents) < 0.8
     working[0] = True
-    memo = HorizonMemo(rows, cols, working, 0)
+    memo = HorizonMemo(team, 0)
     search = TargetSearch(belief)
     listed = search.uncovered_list[: belief.uncovered_count]
     others = working.copy()
@@ -94,13 +96,12 @@ def _qualifying(belief: MapBelief, cells: np.ndarray, rows, cols, working) -> se
 def test_memo_asks_for_a_full_pass_when_a_rival_stops_working() -> None:
     belief = MapBelief((SIDE, SIDE), (0, 0))
     belief.mark_free(belief.index((0, 1)))
-    rows = np.array([0, 10], dtype=np.int64)
-    cols = np.array([0, 10], dtype=np.int64)
-    working = np.array([True, True])
-    memo = HorizonMemo(rows, cols, working, 0)
+    team = Team(2, (0, 0))
+    team.rows[1] = team.cols[1] = 10
+    memo = HorizonMemo(team, 0)
     memo.remember(np.zeros(0, dtype=np.int64), belief)
     assert memo.shortlist(belief) is not None
-    working[1] = False
+    team.working[1] = False
     assert memo.shortlist(belief) is None
 
 
