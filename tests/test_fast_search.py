@@ -93,6 +93,28 @@ def _qualifying(belief: MapBelief, cells: np.ndarray, rows, cols, working) -> se
     return found
 
 
+def test_memo_asks_for_a_full_pass_when_a_rival_moved_beyond_the_margin() -> None:
+    """A cell a rival stood beside, left out of the shortlist, is open once the rival
+    has gone far away: the memo must not answer with the old shortlist."""
+    belief = MapBelief((SIDE, SIDE), (0, 0))
+    far_corner = belief.index((0, SIDE - 1))
+    belief.mark_free(far_corner)
+    team = Team(2, (0, 0))
+    team.cols[1] = SIDE - 2  # beside the far corner: nobody else's to take
+    search = TargetSearch(belief)
+    listed = search.uncovered_list[: belief.uncovered_count]
+    rows, cols = team.others(0)
+    _, kept = _uncontested_horizon(
+        search.candidate, listed, belief.index((0, 0)), belief.stride, rows, cols, 16, search._kept
+    )
+    assert far_corner not in search._kept[:kept]
+    memo = HorizonMemo(team, 0)
+    memo.remember(search._kept[:kept], belief)
+    team.rows[1], team.cols[1] = SIDE - 1, 0  # the rival crosses the map
+    shortlist = memo.shortlist(belief)
+    assert shortlist is None or far_corner in shortlist
+
+
 def test_memo_asks_for_a_full_pass_when_a_rival_stops_working() -> None:
     belief = MapBelief((SIDE, SIDE), (0, 0))
     belief.mark_free(belief.index((0, 1)))
