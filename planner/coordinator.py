@@ -510,10 +510,20 @@ class Coordinator:
             tiers = [(_Tier.FRONTIER, uncovered)]
         if policy != TargetPolicy.FRONTIER:
             tiers.append((_Tier.NET, uncovered))
+        # Still on the way to ``previous``: the search may be skipped when it
+        # would surely return it again (``TargetSearch.run``).
+        hint = None
+        if (
+            previous is not None
+            and old_path
+            and old_path[-1] == previous
+            and abs(old_path[0] - a.index) in (1, self.belief.stride)
+        ):
+            hint = (previous, old_path)
         any_candidate = False
         for tier, pool in tiers:
             if self._roadmap is None:
-                found = self._nearest_affordable(a, None if pool is uncovered else pool)
+                found = self._nearest_affordable(a, None if pool is uncovered else pool, hint)
                 if found is None:
                     any_candidate = any_candidate or any(
                         i not in claims and self._in_range(i) for i in pool
@@ -537,13 +547,7 @@ class Coordinator:
             if found is None:
                 continue
             goal, path = found
-            if (
-                goal == previous
-                and old_path
-                and old_path[-1] == goal
-                and len(old_path) <= len(path)
-                and abs(old_path[0] - a.index) in (1, self.belief.stride)
-            ):
+            if hint is not None and goal == previous and len(old_path) <= len(path):
                 # Re-deciding in transit: keep a detour around other agents
                 # that is no longer than the fresh path, or the two alternate
                 # and the agent paces between them for ever.
@@ -565,7 +569,7 @@ class Coordinator:
         return WAIT
 
     def _nearest_affordable(
-        self, a: _Agent, pool: Iterable[int] | None
+        self, a: _Agent, pool: Iterable[int] | None, hint: tuple[int, list[int]] | None = None
     ) -> tuple[int, list[int]] | _Held | None:
         """The closest target of ``pool`` (None: every uncovered cell) that the agent
         can afford, preferring those no other working agent is closer to (they are
@@ -575,7 +579,8 @@ class Coordinator:
         With ``hold_radius``, when every candidate is nearer to another working
         agent, those within ``hold_radius`` cells of such an agent are left to it
         (it is about to sweep them: chasing them only walks beside it), and
-        ``HELD`` says that all of them are. One compiled search ranks them all.
+        ``HELD`` says that all of them are. One compiled search ranks them all
+        (or confirms ``hint``: the target on the way to, and the way there).
         """
         spread = self.settings.spread
         hold = self.settings.hold_radius if spread else 0
@@ -591,6 +596,7 @@ class Coordinator:
             list(self._claims),
             pool,
             a.memo if pool is None else None,
+            hint if pool is None else None,
         )
         if found is None:
             return None

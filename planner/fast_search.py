@@ -183,6 +183,107 @@ def _search(
 
 
 @njit(cache=True, nogil=True)
+def _may_rival(
+    v: int,
+    mine: int,
+    limit: int,
+    stride: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    closer: int,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+) -> int:
+    """Could candidate ``v``, ``mine`` moves or more away, be a target that no
+    other agent is nearer to than ``min(its distance, limit)``? Not when
+    another agent is nearer than ``min(mine, limit)``: then the index of that
+    agent (ask about the next cell from there: neighbouring cells likely share
+    it). Not when it is out of range or cannot be afforded even at ``mine``
+    moves (``_search``'s tests, with ``energy`` its battery, cost, floor,
+    best_cost and budget): ``closer``. Else -1."""
+    bar = min(mine, limit)
+    r = v // stride - 1
+    c = v % stride - 1
+    n = others_r.size
+    for i in range(n):
+        j = closer + i
+        if j >= n:
+            j -= n
+        if abs(r - others_r[j]) + abs(c - others_c[j]) < bar:
+            return j
+    battery, cost, floor, best_cost, budget = energy
+    back = home[v]
+    if back >= UNREACHED or 2.0 * back * best_cost > budget:
+        return closer
+    if battery - cost * (mine + back) < floor:
+        return closer
+    return -1
+
+
+@njit(cache=True, nogil=True)
+def _rival_listed(
+    candidate: np.ndarray,
+    listed: np.ndarray,
+    start: int,
+    goal: int,
+    reach: int,
+    limit: int,
+    stride: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+) -> bool:
+    """Is there a listed candidate but ``goal``, at most ``reach`` moves from the
+    start in Manhattan terms (a lower bound of the path), that ``_may_rival``?"""
+    r0 = start // stride
+    c0 = start % stride
+    closer = 0
+    for k in range(listed.size):
+        v = listed[k]
+        mine = abs(v // stride - r0) + abs(v % stride - c0)
+        if mine > reach or v == goal or candidate[v] == 0:
+            continue
+        closer = _may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
+        if closer < 0:
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def _rival_near(
+    candidate: np.ndarray,
+    start: int,
+    goal: int,
+    reach: int,
+    limit: int,
+    stride: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+) -> bool:
+    """``_rival_listed`` over every cell within ``reach`` (Manhattan) of the start,
+    read row by row: cheaper than the list when that square is the smaller."""
+    r0 = start // stride
+    c0 = start % stride
+    rows = candidate.size // stride
+    closer = 0
+    for r in range(max(0, r0 - reach), min(rows, r0 + reach + 1)):
+        width = reach - abs(r - r0)
+        base = r * stride
+        for c in range(max(0, c0 - width), min(stride, c0 + width + 1)):
+            v = base + c
+            if candidate[v] == 0 or v == goal:
+                continue
+            mine = abs(r - r0) + abs(c - c0)
+            closer = _may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
+            if closer < 0:
+                return True
+    return False
+
+
+@njit(cache=True, nogil=True)
 def _path_search(
     state: np.ndarray,
     blocked: np.ndarray,
@@ -380,6 +481,88 @@ class TargetSearch:
         path.reverse()
         return path
 
+    def _confirm(
+        self,
+        start: int,
+        goal: int,
+        way: list[int],
+        candidate: np.ndarray,
+        listed: np.ndarray,
+        margin: int,
+        memo: HorizonMemo | None,
+        battery: float,
+        cost: float,
+        floor: float,
+        best_cost: float,
+        budget: float,
+        others: tuple[np.ndarray, np.ndarray],
+        hold: int,
+    ) -> tuple[int, list[int]] | None:
+        """``(rank, path)`` of ``goal``, reached along ``way`` or a shorter path,
+        if the search from ``start`` would surely return it, else None (then
+        only the search can tell). ``path`` is a shortest path there: ``way``
+        itself when it is one.
+
+        The search returns the first uncontested candidate it reaches (rank 0)
+        or, when there is none, the first of the next rank. So it returns
+        ``goal`` when the agent can afford it and every other candidate within
+        the path's length surely ranks lower; and, when ``goal`` is contested,
+        when no candidate anywhere can be uncontested. On the way to a far
+        target this costs a path search along the way and a look at the
+        candidates within its length, where the search covers the known map
+        out to the target at every step.
+        """
+        if candidate[goal] == 0:
+            return None
+        moves = len(way)
+        home = self.home
+        back = int(home[goal])
+        if back >= UNREACHED or 2.0 * back * best_cost > budget:
+            return None
+        if battery - cost * (moves + back) < floor:
+            return None  # perhaps a shorter way now: let the search tell
+        stride = self.belief.stride
+        rows, cols = others
+        near = nearest_manhattan(rows, cols, goal // stride - 1, goal % stride - 1)
+        # The way there is taken to be a shortest path, checked last (a path
+        # search costs the most): the search would give a shorter one.
+        reach = moves
+        if rows.size == 0 or near >= reach:
+            rank, limit = 0, UNREACHED
+        elif hold == 0:
+            rank, limit = 2, 0
+        elif near > hold:
+            rank, limit = 1, hold + 1
+        else:
+            return None  # left to the agent beside it: the search looks for another
+        if rank > 0:
+            # No candidate may be uncontested, however far: the search's horizon
+            # pass (which also renews the memo's shortlist) must find none.
+            horizon, kept = _uncontested_horizon(
+                candidate, listed, start, stride, rows, cols, margin, self._kept
+            )
+            if kept >= 0 and memo is not None:
+                memo.remember(self._kept[:kept], self.belief)
+            if horizon >= 0:
+                return None
+        test = (rows, cols, home, (battery, cost, floor, best_cost, budget))
+        if rank == 0 and listed.size < 2 * reach * reach:
+            # Cells off ``listed`` are surely contested: rank 0 needs only these.
+            rival = _rival_listed(candidate, listed, start, goal, reach, limit, stride, *test)
+        elif self.belief.uncovered_count < 2 * reach * reach:
+            full = self.uncovered_list[: self.belief.uncovered_count]
+            rival = _rival_listed(candidate, full, start, goal, reach, limit, stride, *test)
+        else:
+            rival = _rival_near(candidate, start, goal, reach, limit, stride, *test)
+        if rival:
+            return None
+        if moves == abs(start // stride - goal // stride) + abs(start % stride - goal % stride):
+            return rank, list(way)  # no path is shorter than the Manhattan distance
+        path = self.path(start, goal, longest=moves)
+        if path is None or len(path) < moves:
+            return None
+        return rank, path
+
     def run(
         self,
         start: int,
@@ -393,12 +576,16 @@ class TargetSearch:
         excluded: list[int],
         pool: Iterable[int] | None = None,
         memo: HorizonMemo | None = None,
+        hint: tuple[int, list[int]] | None = None,
     ) -> tuple[int, int, list[int]] | None:
         """The best target as ``(rank, cell, path)`` among ``pool`` (None: the
         uncovered cells), ranked against the ``others`` (rows, columns) agents;
         ``excluded`` cells (claimed by other agents) are not candidates.
-        ``memo``: the searching agent's, when ``pool`` is None."""
-        self.stamp += 1
+        ``memo``: the searching agent's, when ``pool`` is None. ``hint``: the
+        target the agent was heading for and its way there (``pool`` None
+        only); when it is certain that the search would return that target, it
+        is returned without one, with a shortest path there (perhaps not the
+        one the search finds: the way, when it is as short)."""
         margin = -1
         if pool is None:
             mask = self.candidate
@@ -415,6 +602,31 @@ class TargetSearch:
         for i, _ in saved:
             mask[i] = 0
         try:
+            if hint is not None and pool is None:
+                goal, way = hint
+                sure = self._confirm(
+                    start,
+                    goal,
+                    way,
+                    mask,
+                    listed,
+                    margin,
+                    memo,
+                    battery,
+                    cost,
+                    floor,
+                    best_cost,
+                    budget,
+                    others,
+                    hold,
+                )
+                if sure is not None:
+                    return sure[0], goal, sure[1]
+                if margin >= 0 and memo is not None:
+                    renewed = memo.shortlist(self.belief)  # by the confirmation
+                    if renewed is not None:
+                        listed, margin = renewed, -1
+            self.stamp += 1
             rank, cell, kept = _search(
                 self.state,
                 mask,

@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gcs.simulate import simulate
+from planner import fast_search
 from planner.belief import MapBelief
 from planner.fast_search import HorizonMemo, TargetSearch, Team, _uncontested_horizon
 from sitl_mock import mapgen
@@ -127,6 +128,75 @@ def test_memo_asks_for_a_full_pass_when_a_rival_stops_working() -> None:
     assert memo.shortlist(belief) is None
 
 
+@settings(max_examples=300, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    agents=st.integers(1, 6),
+    hold=st.sampled_from([0, 2, 5]),
+    steps=st.integers(1, 6),
+)
+def test_a_confirmed_hint_is_what_the_search_returns(
+    seed: int, agents: int, hold: int, steps: int
+) -> None:
+    """An agent takes a target, walks part of the way while the others move, cells
+    are covered and found and the battery drains or sags: whenever the hint (the target
+    and the rest of the way) is confirmed, the search returns the same target at
+    the same rank, by a path as long, and the path is the search's or the way."""
+    rng = np.random.default_rng(seed)
+    belief = MapBelief((SIDE, SIDE), (0, 0))
+    walls = rng.random((SIDE, SIDE)) < rng.uniform(0.0, 0.3)
+    walls[0, 0] = False
+    for r, c in zip(*np.nonzero(~walls), strict=True):
+        belief.mark_free(belief.index((int(r), int(c))))
+    covered = rng.uniform(0.5, 0.98)
+    for i in list(belief.uncovered):
+        if rng.random() < covered:
+            belief.cover(belief.cell(i), 1)
+    team = Team(agents, (0, 0))
+    free = np.argwhere(~walls)
+    picks = free[rng.integers(0, len(free), agents)]
+    team.rows[:], team.cols[:] = picks[:, 0], picks[:, 1]
+    team.working[:] = rng.random(agents) < 0.8
+    memo = HorizonMemo(team, 0)
+    search = TargetSearch(belief)
+    cost = float(rng.choice([0.0, 0.2, 1.0]))
+    budget = 80.0
+    battery = float(rng.uniform(40.0, 100.0))
+    best_cost = cost
+
+    def ask(hint=None):
+        start = belief.index((int(team.rows[0]), int(team.cols[0])))
+        claims = [i for i in belief.uncovered if rng.random() < 0.02]
+        args = (start, battery, cost, 20.0, best_cost, budget, team.others(0), hold, claims)
+        return search.run(*args, None, memo, hint), search.run(*args, None, None)
+
+    first, _ = ask()
+    if first is None:
+        return
+    goal, way = first[1], first[2]
+    for _ in range(min(steps, len(way) - 1)):
+        cell = belief.cell(way.pop(0))
+        team.rows[0], team.cols[0] = cell
+        battery -= cost
+        moved = np.clip(team.rows[1:] + rng.integers(-1, 2, agents - 1), 0, SIDE - 1)
+        team.rows[1:] = moved
+        team.cols[1:] = np.clip(team.cols[1:] + rng.integers(-1, 2, agents - 1), 0, SIDE - 1)
+    battery -= float(rng.choice([0.0, 0.0, 5.0, 40.0]))  # a sag, or a worse estimate
+    best_cost *= float(rng.choice([1.0, 1.0, 3.0]))  # the team's cheapest mover is lost
+    for i in list(belief.uncovered):
+        if rng.random() < 0.05 and i != goal:
+            belief.cover(belief.cell(i), 1)
+    for r, c in rng.integers(0, SIDE, size=(int(rng.integers(0, 6)), 2)):
+        belief.mark_free(belief.index((int(r), int(c))))
+    confirmed, searched = ask((goal, list(way)))
+    assert (confirmed is None) == (searched is None)
+    if confirmed is None:
+        return
+    assert confirmed[:2] == searched[:2]
+    assert len(confirmed[2]) == len(searched[2])
+    assert confirmed[2] in (searched[2], way)
+
+
 def _tracks_digest(grid, agents: int) -> str:
     energy = 80.0 / (4 * (grid.shape[0] + grid.shape[1]))
     result = simulate(make_mission(grid, agents, energy_per_m_pct=energy))
@@ -146,3 +216,31 @@ def test_plans_are_the_same_without_the_shortlist(monkeypatch, grid, agents: int
     with_memo = _tracks_digest(grid, agents)
     monkeypatch.setattr(HorizonMemo, "shortlist", lambda self, belief: None)
     assert _tracks_digest(grid, agents) == with_memo
+
+
+@pytest.mark.parametrize(
+    ("grid", "agents"),
+    [
+        (mapgen.open_field(60, 60, 2), 12),
+        (mapgen.rooms(60, 60, 5), 9),
+        (mapgen.open_field(80, 80, 3), 1),
+    ],
+    ids=["open60-12", "rooms60-9", "open80-1"],
+)
+def test_plans_are_the_same_without_confirmations(monkeypatch, grid, agents: int) -> None:
+    """Skipping the searches that would return the target on the way changes no
+    move, and it does skip searches."""
+    searches = []
+    search = fast_search._search
+
+    def counted(*args):
+        searches.append(1)
+        return search(*args)
+
+    monkeypatch.setattr(fast_search, "_search", counted)
+    confirmed = _tracks_digest(grid, agents)
+    with_confirmations = len(searches)
+    searches.clear()
+    monkeypatch.setattr(TargetSearch, "_confirm", lambda self, *args: None)
+    assert _tracks_digest(grid, agents) == confirmed
+    assert with_confirmations < len(searches)
