@@ -221,7 +221,7 @@ def _may_rival(
 
 
 @njit(cache=True, nogil=True)
-def _rival_listed(
+def _rivals_listed(
     candidate: np.ndarray,
     listed: np.ndarray,
     start: int,
@@ -233,12 +233,15 @@ def _rival_listed(
     others_c: np.ndarray,
     home: np.ndarray,
     energy: tuple[float, float, float, float, float],
-) -> bool:
-    """Is there a listed candidate but ``goal``, at most ``reach`` moves from the
-    start in Manhattan terms (a lower bound of the path), that ``_may_rival``?"""
+    found: np.ndarray,
+) -> int:
+    """The listed candidates but ``goal``, at most ``reach`` moves from the start
+    in Manhattan terms (a lower bound of the path), that ``_may_rival``: put
+    in ``found``, and their count (``found.size`` when there are more)."""
     r0 = start // stride
     c0 = start % stride
     closer = 0
+    count = 0
     for k in range(listed.size):
         v = listed[k]
         mine = abs(v // stride - r0) + abs(v % stride - c0)
@@ -246,12 +249,16 @@ def _rival_listed(
             continue
         closer = _may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
         if closer < 0:
-            return True
-    return False
+            if count == found.size:
+                return count
+            found[count] = v
+            count += 1
+            closer = 0
+    return count
 
 
 @njit(cache=True, nogil=True)
-def _rival_near(
+def _rivals_near(
     candidate: np.ndarray,
     start: int,
     goal: int,
@@ -262,13 +269,16 @@ def _rival_near(
     others_c: np.ndarray,
     home: np.ndarray,
     energy: tuple[float, float, float, float, float],
-) -> bool:
-    """``_rival_listed`` over every cell within ``reach`` (Manhattan) of the start,
-    read row by row: cheaper than the list when that square is the smaller."""
+    found: np.ndarray,
+) -> int:
+    """``_rivals_listed`` over every cell within ``reach`` (Manhattan) of the
+    start, read row by row: cheaper than the list when that square is the
+    smaller."""
     r0 = start // stride
     c0 = start % stride
     rows = candidate.size // stride
     closer = 0
+    count = 0
     for r in range(max(0, r0 - reach), min(rows, r0 + reach + 1)):
         width = reach - abs(r - r0)
         base = r * stride
@@ -279,8 +289,94 @@ def _rival_near(
             mine = abs(r - r0) + abs(c - c0)
             closer = _may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
             if closer < 0:
-                return True
-    return False
+                if count == found.size:
+                    return count
+                found[count] = v
+                count += 1
+                closer = 0
+    return count
+
+
+@njit(cache=True, nogil=True)
+def _first_among(
+    state: np.ndarray,
+    targets: np.ndarray,
+    start: int,
+    stride: int,
+    bound: int,
+    rank: int,
+    hold: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+    seen: np.ndarray,
+    stamp: int,
+    parent: np.ndarray,
+    queue: np.ndarray,
+) -> tuple[int, int]:
+    """``_search`` when only the ``targets`` (in range, and reached from home)
+    can be what it returns, all within ``bound`` moves: the first of them it
+    reaches that the agent can afford and that ranks ``rank`` or better, as
+    (rank, cell), or (-1, -1).
+
+    Breadth-first from the start in the same order, over the cells whose
+    distance plus Manhattan distance to the nearest target is at most
+    ``bound`` (as ``_path_search``): the targets are reached in the same
+    order, from the same parents, as by the search over the whole map.
+    """
+    battery, cost, floor, _, _ = energy
+    steps = (-stride, stride, 1, -1)
+    n = targets.size
+    seen[start] = stamp
+    queue[0] = start
+    head = 0
+    tail = 1
+    level_end = 1
+    distance = 0
+    while head < tail:
+        if head == level_end:
+            level_end = tail
+            distance += 1
+        u = queue[head]
+        head += 1
+        d = distance + 1
+        for k in range(4):
+            v = u + steps[k]
+            if state[v] != _FREE or seen[v] == stamp:
+                continue
+            r = v // stride
+            c = v % stride
+            nearest = UNREACHED
+            for i in range(n):
+                t = targets[i]
+                m = abs(r - t // stride) + abs(c - t % stride)
+                if m < nearest:
+                    nearest = m
+            if d + nearest > bound:
+                continue
+            seen[v] = stamp
+            parent[v] = u
+            queue[tail] = v
+            tail += 1
+            if nearest != 0:
+                continue
+            if battery - cost * (d + home[v]) < floor:
+                continue
+            near = UNREACHED
+            for j in range(others_r.size):
+                m = abs(r - 1 - others_r[j]) + abs(c - 1 - others_c[j])
+                if m < near:
+                    near = m
+            if near >= d:
+                found = 0
+            elif hold > 0 and near >= min(d, hold + 1):
+                found = 1
+            else:
+                found = 2
+            if found <= rank:
+                return found, v
+    return -1, -1
 
 
 @njit(cache=True, nogil=True)
@@ -420,6 +516,9 @@ class HorizonMemo:
 class TargetSearch:
     """Scratch arrays for ``_search``, reused across calls on one belief."""
 
+    #: Most candidates ``_confirm`` looks at one by one.
+    RIVALS = 32
+
     def __init__(self, belief: MapBelief) -> None:
         size = len(belief.state)
         self.belief = belief
@@ -431,6 +530,9 @@ class TargetSearch:
         self.candidate = np.frombuffer(belief.uncovered_mask, dtype=np.uint8)
         self.uncovered_list = np.frombuffer(belief.uncovered_list, dtype=np.int64)
         self._kept = np.zeros(size, dtype=np.int64)
+        #: Candidates that might outrank the target on the way (``_confirm``),
+        #: with a place for the target.
+        self._rivals = np.zeros(self.RIVALS + 1, dtype=np.int64)
         self._pool_mask = np.zeros(size, dtype=np.uint8)
         self._blocked = np.zeros(size, dtype=np.uint8)
         self.home = np.frombuffer(belief.charger_dist, dtype=np.int32)
@@ -497,20 +599,20 @@ class TargetSearch:
         budget: float,
         others: tuple[np.ndarray, np.ndarray],
         hold: int,
-    ) -> tuple[int, list[int]] | None:
-        """``(rank, path)`` of ``goal``, reached along ``way`` or a shorter path,
-        if the search from ``start`` would surely return it, else None (then
-        only the search can tell). ``path`` is a shortest path there: ``way``
-        itself when it is one.
+    ) -> tuple[int, int, list[int]] | None:
+        """What the search from ``start`` would return, found without it when the
+        agent is on ``way`` to ``goal``; None when only the search can tell.
 
         The search returns the first uncontested candidate it reaches (rank 0)
-        or, when there is none, the first of the next rank. So it returns
-        ``goal`` when the agent can afford it and every other candidate within
-        the path's length surely ranks lower; and, when ``goal`` is contested,
-        when no candidate anywhere can be uncontested. On the way to a far
-        target this costs a path search along the way and a look at the
-        candidates within its length, where the search covers the known map
-        out to the target at every step.
+        or, when there is none, the first of the next rank. ``goal`` ranks so
+        at the end of ``way``, so the search returns it or a candidate it
+        reaches no later. One pass over the uncovered cells within the way's
+        length finds the few that might (``_rivals_listed``); when ``goal`` is
+        contested, none anywhere may be uncontested (the horizon pass). Then
+        a search bounded to the ways to those few (``_first_among``) finds
+        what the search over the map around the agent out to the target
+        would, as it would at every step of a long transit. With no rival and
+        a straight way, ``way`` is the answer as it stands.
         """
         if candidate[goal] == 0:
             return None
@@ -524,10 +626,7 @@ class TargetSearch:
         stride = self.belief.stride
         rows, cols = others
         near = nearest_manhattan(rows, cols, goal // stride - 1, goal % stride - 1)
-        # The way there is taken to be a shortest path, checked last (a path
-        # search costs the most): the search would give a shorter one.
-        reach = moves
-        if rows.size == 0 or near >= reach:
+        if rows.size == 0 or near >= moves:
             rank, limit = 0, UNREACHED
         elif hold == 0:
             rank, limit = 2, 0
@@ -545,23 +644,43 @@ class TargetSearch:
                 memo.remember(self._kept[:kept], self.belief)
             if horizon >= 0:
                 return None
-        test = (rows, cols, home, (battery, cost, floor, best_cost, budget))
-        if rank == 0 and listed.size < 2 * reach * reach:
+        energy = (battery, cost, floor, best_cost, budget)
+        test = (moves, limit, stride, rows, cols, home, energy, self._rivals[:-1])
+        if rank == 0 and listed.size < 2 * moves * moves:
             # Cells off ``listed`` are surely contested: rank 0 needs only these.
-            rival = _rival_listed(candidate, listed, start, goal, reach, limit, stride, *test)
-        elif self.belief.uncovered_count < 2 * reach * reach:
+            count = _rivals_listed(candidate, listed, start, goal, *test)
+        elif self.belief.uncovered_count < 2 * moves * moves:
             full = self.uncovered_list[: self.belief.uncovered_count]
-            rival = _rival_listed(candidate, full, start, goal, reach, limit, stride, *test)
+            count = _rivals_listed(candidate, full, start, goal, *test)
         else:
-            rival = _rival_near(candidate, start, goal, reach, limit, stride, *test)
-        if rival:
+            count = _rivals_near(candidate, start, goal, *test)
+        if count == self.RIVALS:
+            return None  # too many to look at one by one: the search is as quick
+        manhattan = abs(start // stride - goal // stride) + abs(start % stride - goal % stride)
+        if count == 0 and moves == manhattan:
+            return rank, goal, list(way)  # no path is shorter than the Manhattan distance
+        self._rivals[count] = goal
+        self.stamp += 1
+        rank, cell = _first_among(
+            self.state,
+            self._rivals[: count + 1],
+            start,
+            stride,
+            moves,
+            rank,
+            hold,
+            rows,
+            cols,
+            home,
+            energy,
+            self.seen,
+            self.stamp,
+            self.parent,
+            self.queue,
+        )
+        if rank < 0:
             return None
-        if moves == abs(start // stride - goal // stride) + abs(start % stride - goal % stride):
-            return rank, list(way)  # no path is shorter than the Manhattan distance
-        path = self.path(start, goal, longest=moves)
-        if path is None or len(path) < moves:
-            return None
-        return rank, path
+        return rank, cell, self._unwind(start, cell)
 
     def run(
         self,
@@ -621,7 +740,7 @@ class TargetSearch:
                     hold,
                 )
                 if sure is not None:
-                    return sure[0], goal, sure[1]
+                    return sure
                 if margin >= 0 and memo is not None:
                     renewed = memo.shortlist(self.belief)  # by the confirmation
                     if renewed is not None:

@@ -159,7 +159,7 @@ def test_a_confirmed_hint_is_what_the_search_returns(
     team.working[:] = rng.random(agents) < 0.8
     memo = HorizonMemo(team, 0)
     search = TargetSearch(belief)
-    cost = float(rng.choice([0.0, 0.2, 1.0]))
+    cost = float(rng.choice([0.0, 0.2, 1.0, 2.0]))
     budget = 80.0
     battery = float(rng.uniform(40.0, 100.0))
     best_cost = cost
@@ -195,6 +195,33 @@ def test_a_confirmed_hint_is_what_the_search_returns(
     assert confirmed[:2] == searched[:2]
     assert len(confirmed[2]) == len(searched[2])
     assert confirmed[2] in (searched[2], way)
+
+
+def test_a_candidate_reached_first_is_taken_only_if_affordable_there() -> None:
+    """A candidate two cells away behind a wall is reached before the target on the
+    way, and could be afforded were it as near as it looks, but not by the way
+    round: the target stands, as the search says."""
+    belief = MapBelief((22, 12), (20, 5))
+    wall = {(9, 4), (9, 5)}
+    for r in range(22):
+        for c in range(12):
+            if (r, c) not in wall:
+                belief.mark_free(belief.index((r, c)))
+    start, behind, goal = (10, 5), (8, 5), (16, 5)
+    for i in list(belief.uncovered):
+        if belief.cell(i) not in (behind, goal):
+            belief.cover(belief.cell(i), 1)
+    search = TargetSearch(belief)
+    nobody = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+    way = [belief.index((r, 5)) for r in range(11, 17)]
+    # Battery 36, 1 a move, floor 20: the target costs 6 + 4 home; the cell behind
+    # the wall 2 + 13 as the crow flies, but 4 + 13 by the way round.
+    args = (belief.index(start), 36.0, 1.0, 20.0, 1.0, 80.0, nobody, 5, [])
+    searched = search.run(*args)
+    confirmed = search.run(*args, None, None, (belief.index(goal), way))
+    assert searched is not None and searched[1] == belief.index(goal)
+    assert confirmed is not None and confirmed[:2] == searched[:2]
+    assert len(confirmed[2]) == len(searched[2])
 
 
 def _tracks_digest(grid, agents: int) -> str:
