@@ -300,6 +300,7 @@ def _rivals_near(
 @njit(cache=True, nogil=True)
 def _first_among(
     state: np.ndarray,
+    candidate: np.ndarray,
     targets: np.ndarray,
     start: int,
     stride: int,
@@ -315,8 +316,8 @@ def _first_among(
     parent: np.ndarray,
     queue: np.ndarray,
 ) -> tuple[int, int]:
-    """``_search`` when only the ``targets`` (in range, and reached from home)
-    can be what it returns, all within ``bound`` moves: the first of them it
+    """``_search`` when only the ``targets`` (candidates in range, and reached
+    from home) can be what it returns, all within ``bound`` moves: the first of them it
     reaches that the agent can afford and that ranks ``rank`` or better, as
     (rank, cell), or (-1, -1).
 
@@ -328,6 +329,7 @@ def _first_among(
     battery, cost, floor, _, _ = energy
     steps = (-stride, stride, 1, -1)
     n = targets.size
+    toward = 0
     seen[start] = stamp
     queue[0] = start
     head = 0
@@ -347,19 +349,30 @@ def _first_among(
                 continue
             r = v // stride
             c = v % stride
-            nearest = UNREACHED
+            within = False
             for i in range(n):
-                t = targets[i]
-                m = abs(r - t // stride) + abs(c - t % stride)
-                if m < nearest:
-                    nearest = m
-            if d + nearest > bound:
+                j = toward + i
+                if j >= n:
+                    j -= n
+                t = targets[j]
+                if d + abs(r - t // stride) + abs(c - t % stride) <= bound:
+                    toward = j  # neighbouring cells likely lie on the way to it too
+                    within = True
+                    break
+            if not within:
                 continue
             seen[v] = stamp
             parent[v] = u
             queue[tail] = v
             tail += 1
-            if nearest != 0:
+            if candidate[v] == 0:
+                continue
+            target = False
+            for i in range(n):
+                if targets[i] == v:
+                    target = True
+                    break
+            if not target:
                 continue
             if battery - cost * (d + home[v]) < floor:
                 continue
@@ -435,6 +448,19 @@ def _path_search(
             queue[tail] = v
             tail += 1
     return 0 if beyond == UNREACHED else beyond
+
+
+@njit(cache=True, nogil=True)
+def _unwind(parent: np.ndarray, start: int, goal: int, way: np.ndarray) -> int:
+    """Write the path to ``goal`` that a search from ``start`` left in ``parent``
+    into ``way``, goal first and the start left out; return its length."""
+    length = 0
+    v = goal
+    while v != start:
+        way[length] = v
+        length += 1
+        v = parent[v]
+    return length
 
 
 @njit(cache=True, nogil=True)
@@ -517,7 +543,8 @@ class TargetSearch:
     """Scratch arrays for ``_search``, reused across calls on one belief."""
 
     #: Most candidates ``_confirm`` looks at one by one.
-    RIVALS = 32
+    RIVALS = 128
+    LIST_COST = 8
 
     def __init__(self, belief: MapBelief) -> None:
         size = len(belief.state)
@@ -530,6 +557,7 @@ class TargetSearch:
         self.candidate = np.frombuffer(belief.uncovered_mask, dtype=np.uint8)
         self.uncovered_list = np.frombuffer(belief.uncovered_list, dtype=np.int64)
         self._kept = np.zeros(size, dtype=np.int64)
+        self._way = np.zeros(size, dtype=np.int64)
         #: Candidates that might outrank the target on the way (``_confirm``),
         #: with a place for the target.
         self._rivals = np.zeros(self.RIVALS + 1, dtype=np.int64)
@@ -576,12 +604,8 @@ class TargetSearch:
         return self._unwind(start, goal) if found == 1 else None
 
     def _unwind(self, start: int, goal: int) -> list[int]:
-        path = [goal]
-        parent = self.parent
-        while parent[path[-1]] != start:
-            path.append(int(parent[path[-1]]))
-        path.reverse()
-        return path
+        length = _unwind(self.parent, start, goal, self._way)
+        return self._way[length - 1 :: -1].tolist()
 
     def _confirm(
         self,
@@ -646,10 +670,13 @@ class TargetSearch:
                 return None
         energy = (battery, cost, floor, best_cost, budget)
         test = (moves, limit, stride, rows, cols, home, energy, self._rivals[:-1])
-        if rank == 0 and listed.size < 2 * moves * moves:
+        # A listed cell costs about LIST_COST cells of the square around the start
+        # read row by row (its row and column are worked out by division).
+        square = 2 * moves * moves
+        if rank == 0 and listed.size * self.LIST_COST < square:
             # Cells off ``listed`` are surely contested: rank 0 needs only these.
             count = _rivals_listed(candidate, listed, start, goal, *test)
-        elif self.belief.uncovered_count < 2 * moves * moves:
+        elif self.belief.uncovered_count * self.LIST_COST < square:
             full = self.uncovered_list[: self.belief.uncovered_count]
             count = _rivals_listed(candidate, full, start, goal, *test)
         else:
@@ -663,6 +690,7 @@ class TargetSearch:
         self.stamp += 1
         rank, cell = _first_among(
             self.state,
+            candidate,
             self._rivals[: count + 1],
             start,
             stride,
