@@ -235,9 +235,13 @@ def _rivals_listed(
     energy: tuple[float, float, float, float, float],
     found: np.ndarray,
 ) -> int:
-    """The listed candidates but ``goal``, at most ``reach`` moves from the start
-    in Manhattan terms (a lower bound of the path), that ``_may_rival``: put
-    in ``found``, and their count (``found.size`` when there are more)."""
+    """The listed candidates but ``goal`` that may be within ``reach`` moves of
+    the start and ``_may_rival``: put in ``found``, and their count
+    (``found.size`` when there are more).
+
+    A path is at least as long as the Manhattan distance, and as the
+    difference of its ends' distances home (the charger as a landmark: the
+    stronger bound where walls make the way round long)."""
     r0 = start // stride
     c0 = start % stride
     closer = 0
@@ -246,6 +250,9 @@ def _rivals_listed(
         v = listed[k]
         mine = abs(v // stride - r0) + abs(v % stride - c0)
         if mine > reach or v == goal or candidate[v] == 0:
+            continue
+        mine = max(mine, abs(home[v] - home[start]))
+        if mine > reach:
             continue
         closer = _may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
         if closer < 0:
@@ -286,7 +293,9 @@ def _rivals_near(
             v = base + c
             if candidate[v] == 0 or v == goal:
                 continue
-            mine = abs(r - r0) + abs(c - c0)
+            mine = max(abs(r - r0) + abs(c - c0), abs(home[v] - home[start]))
+            if mine > reach:
+                continue
             closer = _may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
             if closer < 0:
                 if count == found.size:
@@ -322,9 +331,10 @@ def _first_among(
     (rank, cell), or (-1, -1).
 
     Breadth-first from the start in the same order, over the cells whose
-    distance plus Manhattan distance to the nearest target is at most
-    ``bound`` (as ``_path_search``): the targets are reached in the same
-    order, from the same parents, as by the search over the whole map.
+    distance plus a lower bound of the way on to some target (as in
+    ``_rivals_listed``) is at most ``bound``: either bound changes by at most
+    one a move, so, as in ``_path_search``, the targets are reached in the
+    same order, from the same parents, as by the search over the whole map.
     """
     battery, cost, floor, _, _ = energy
     steps = (-stride, stride, 1, -1)
@@ -355,7 +365,8 @@ def _first_among(
                 if j >= n:
                     j -= n
                 t = targets[j]
-                if d + abs(r - t // stride) + abs(c - t % stride) <= bound:
+                apart = max(abs(r - t // stride) + abs(c - t % stride), abs(home[v] - home[t]))
+                if d + apart <= bound:
                     toward = j  # neighbouring cells likely lie on the way to it too
                     within = True
                     break
@@ -658,17 +669,19 @@ class TargetSearch:
             rank, limit = 1, hold + 1
         else:
             return None  # left to the agent beside it: the search looks for another
+        energy = (battery, cost, floor, best_cost, budget)
         if rank > 0:
-            # No candidate may be uncontested, however far: the search's horizon
-            # pass (which also renews the memo's shortlist) must find none.
+            # No candidate may be uncontested, however far. The search's horizon
+            # pass (which also renews the memo's shortlist) finds none in Manhattan
+            # terms, or the stronger bound of ``_rivals_listed`` rules them out.
             horizon, kept = _uncontested_horizon(
                 candidate, listed, start, stride, rows, cols, margin, self._kept
             )
             if kept >= 0 and memo is not None:
                 memo.remember(self._kept[:kept], self.belief)
-            if horizon >= 0:
+            anywhere = (UNREACHED, UNREACHED, stride, rows, cols, home, energy, self._rivals)
+            if horizon >= 0 and _rivals_listed(candidate, listed, start, -1, *anywhere):
                 return None
-        energy = (battery, cost, floor, best_cost, budget)
         test = (moves, limit, stride, rows, cols, home, energy, self._rivals[:-1])
         # A listed cell costs about LIST_COST cells of the square around the start
         # read row by row (its row and column are worked out by division).
