@@ -63,10 +63,13 @@ class MapBelief:
         self.uncovered_mask = bytearray(size)
         self.uncovered_list = array("q", bytes(8 * size))
         self.uncovered_count = 0
-        #: Every cell that joined the uncovered ones, in order: the first
-        #: ``added_count`` items (what joined since some moment is a slice).
+        #: Every cell that became free, in order (so also every cell that joined
+        #: the uncovered ones): the first ``added_count`` items (what joined
+        #: since some moment is a slice).
         self.added = array("q", bytes(8 * size))
         self.added_count = 0
+        #: How many free cells were blocked for good (``block``).
+        self.blocked_count = 0
         self._listed_at = array("q", bytes(8 * size))
         self._set_free(self.charger_index)
 
@@ -98,6 +101,13 @@ class MapBelief:
     def distance_to_charger(self, cell: Cell) -> int:
         """Moves from ``cell`` to the charger over known free cells (UNREACHED if none)."""
         return self.charger_dist[self.index(cell)]
+
+    @property
+    def stamp(self) -> tuple[int, int]:
+        """How far the map has changed: cells that became free, cells blocked. A
+        shortest path at one stamp is one still unless a cell blocked since,
+        or one that became free since opens a shorter way."""
+        return self.added_count, self.blocked_count
 
     # -- updates ------------------------------------------------------------
 
@@ -147,6 +157,7 @@ class MapBelief:
             return
         self.state[i] = _OBSTACLE
         self.free_count -= 1
+        self.blocked_count += 1
         self._drop_uncovered(i)
         dist = self.charger_dist
         np.frombuffer(dist, dtype=np.int32)[:] = UNREACHED  # in place: searches hold views
@@ -163,8 +174,8 @@ class MapBelief:
             self._listed_at[i] = n
             self.uncovered_list[n] = i
             self.uncovered_count = n + 1
-            self.added[self.added_count] = i
-            self.added_count += 1
+        self.added[self.added_count] = i
+        self.added_count += 1
         dist = self.charger_dist
         if i == self.charger_index:
             dist[i] = 0

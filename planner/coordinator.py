@@ -139,6 +139,8 @@ class _Agent:
     was_heading_for: int | None = None
     #: Transit moves left before the target is searched for again (``replan_transit``).
     recheck_in: int = 0
+    #: ``MapBelief.stamp`` when ``path`` was last known to be a shortest path.
+    path_known_at: tuple[int, int] | None = None
     held_for: int = 0  # decisions to wait before searching for a target again
     held_backoff: int = 0
     #: Asked to make way by an agent that is itself making way (see ``_make_way``).
@@ -519,7 +521,7 @@ class Coordinator:
             and old_path[-1] == previous
             and abs(old_path[0] - a.index) in (1, self.belief.stride)
         ):
-            hint = (previous, old_path)
+            hint = (previous, old_path, a.path_known_at)
         any_candidate = False
         for tier, pool in tiers:
             if self._roadmap is None:
@@ -554,6 +556,7 @@ class Coordinator:
                 path = old_path
             self._claims[goal] = a.id
             a.goal, a.path, a.mode = goal, path, AgentMode.TRANSIT
+            a.path_known_at = self.belief.stamp
             if self.settings.far_transit_recheck:
                 a.recheck_in = max(0, (len(path) - self.settings.far_transit_recheck) // 2)
             kind = EventKind.SAFETY_NET if tier == _Tier.NET else EventKind.TARGET
@@ -569,7 +572,10 @@ class Coordinator:
         return WAIT
 
     def _nearest_affordable(
-        self, a: _Agent, pool: Iterable[int] | None, hint: tuple[int, list[int]] | None = None
+        self,
+        a: _Agent,
+        pool: Iterable[int] | None,
+        hint: tuple[int, list[int], tuple[int, int] | None] | None = None,
     ) -> tuple[int, list[int]] | _Held | None:
         """The closest target of ``pool`` (None: every uncovered cell) that the agent
         can afford, preferring those no other working agent is closer to (they are
@@ -580,7 +586,8 @@ class Coordinator:
         agent, those within ``hold_radius`` cells of such an agent are left to it
         (it is about to sweep them: chasing them only walks beside it), and
         ``HELD`` says that all of them are. One compiled search ranks them all
-        (or confirms ``hint``: the target on the way to, and the way there).
+        (or confirms ``hint``: the target on the way to, the way there, and
+        when it was last known to be a shortest way).
         """
         spread = self.settings.spread
         hold = self.settings.hold_radius if spread else 0
@@ -695,6 +702,8 @@ class Coordinator:
             if a.mode == AgentMode.TRANSIT and not self._can_afford(a, len(path), goal):
                 return self._go_charge(a)  # the new way there is longer than budgeted
             a.path = path
+            shortest = self._roadmap is None or goal == self.belief.charger_index
+            a.path_known_at = self.belief.stamp if shortest else None
         nxt = a.path[0]
         blocker = self._occupant.get(nxt)
         if blocker is None or blocker == a.id:
@@ -702,7 +711,7 @@ class Coordinator:
             return self._move(a, nxt)
         detour = self._detour(a, goal)
         if detour is not None:
-            a.path = detour
+            a.path, a.path_known_at = detour, None
             return self._move(a, a.path.pop(0))
         a.waited += 1
         if a.waited >= self.settings.patience:

@@ -31,15 +31,18 @@ def _uncontested_horizon(
     others_c: np.ndarray,
     margin: int,
     kept: np.ndarray,
+    home: np.ndarray,
 ) -> tuple[int, int]:
     """The largest distance at which a candidate could still be uncontested.
 
     A candidate ``v`` at path distance ``d`` is uncontested when every other
     agent is at least ``d`` away (Manhattan); as ``d`` is at least the
-    Manhattan distance from the start, only candidates that no other agent is
-    nearer to (in Manhattan terms) can be, and none farther than its distance
-    to the nearest other agent. One pass over the ``listed`` cells (those
-    still marked in ``candidate`` count), far cheaper than a search of the map.
+    Manhattan distance from the start, and the difference of the two cells'
+    distances ``home`` (the charger as a landmark), only candidates that no
+    other agent is nearer to than that can be, and none farther than its
+    distance to the nearest other agent. One pass over the ``listed`` cells
+    (those still marked in ``candidate`` count), far cheaper than a search of
+    the map.
 
     With ``margin`` >= 0 the pass also keeps, in ``kept``, every listed cell
     (marked or not: a claim may be released) that no other agent is more than
@@ -80,7 +83,11 @@ def _uncontested_horizon(
         if margin >= 0:
             kept[count] = v
             count += 1
-        if candidate[v] != 0 and nearest_other >= mine and nearest_other > horizon:
+        if (
+            candidate[v] != 0
+            and nearest_other > horizon
+            and nearest_other >= max(mine, abs(home[v] - home[start]))
+        ):
             horizon = nearest_other
     return horizon, count if margin >= 0 else -1
 
@@ -163,7 +170,7 @@ def _search(
                 if best1 < 0:
                     best1 = v
                     horizon, kept_count = _uncontested_horizon(
-                        candidate, listed, start, stride, others_r, others_c, margin, kept
+                        candidate, listed, start, stride, others_r, others_c, margin, kept, home
                     )
                     if d > horizon:
                         return 1, v, kept_count
@@ -171,7 +178,7 @@ def _search(
                 best2 = v
                 if hold == 0:
                     horizon, kept_count = _uncontested_horizon(
-                        candidate, listed, start, stride, others_r, others_c, margin, kept
+                        candidate, listed, start, stride, others_r, others_c, margin, kept, home
                     )
                     if d > horizon:
                         return 2, v, kept_count
@@ -623,6 +630,7 @@ class TargetSearch:
         start: int,
         goal: int,
         way: list[int],
+        known_at: tuple[int, int] | None,
         candidate: np.ndarray,
         listed: np.ndarray,
         margin: int,
@@ -646,8 +654,9 @@ class TargetSearch:
         contested, none anywhere may be uncontested (the horizon pass). Then
         a search bounded to the ways to those few (``_first_among``) finds
         what the search over the map around the agent out to the target
-        would, as it would at every step of a long transit. With no rival and
-        a straight way, ``way`` is the answer as it stands.
+        would, as it would at every step of a long transit. With no rival,
+        ``way`` is the answer as it stands if it is still a shortest way
+        (``_still_shortest``).
         """
         if candidate[goal] == 0:
             return None
@@ -675,7 +684,7 @@ class TargetSearch:
             # pass (which also renews the memo's shortlist) finds none in Manhattan
             # terms, or the stronger bound of ``_rivals_listed`` rules them out.
             horizon, kept = _uncontested_horizon(
-                candidate, listed, start, stride, rows, cols, margin, self._kept
+                candidate, listed, start, stride, rows, cols, margin, self._kept, home
             )
             if kept >= 0 and memo is not None:
                 memo.remember(self._kept[:kept], self.belief)
@@ -696,9 +705,8 @@ class TargetSearch:
             count = _rivals_near(candidate, start, goal, *test)
         if count == self.RIVALS:
             return None  # too many to look at one by one: the search is as quick
-        manhattan = abs(start // stride - goal // stride) + abs(start % stride - goal % stride)
-        if count == 0 and moves == manhattan:
-            return rank, goal, list(way)  # no path is shorter than the Manhattan distance
+        if count == 0 and self._still_shortest(start, goal, moves, known_at):
+            return rank, goal, list(way)
         self._rivals[count] = goal
         self.stamp += 1
         rank, cell = _first_among(
@@ -723,6 +731,31 @@ class TargetSearch:
             return None
         return rank, cell, self._unwind(start, cell)
 
+    def _still_shortest(
+        self, start: int, goal: int, moves: int, known_at: tuple[int, int] | None
+    ) -> bool:
+        """Is there surely no way from ``start`` to ``goal`` shorter than ``moves``?
+
+        So when ``moves`` is the Manhattan distance. So too when a way that
+        long was a shortest way at ``known_at`` (``MapBelief.stamp``, and the
+        agent has kept to it since), no cell was blocked since, and no cell
+        that became free since lies where a shorter way could pass.
+        """
+        stride = self.belief.stride
+        r0, c0, r1, c1 = start // stride, start % stride, goal // stride, goal % stride
+        if moves == abs(r0 - r1) + abs(c0 - c1):
+            return True
+        if known_at is None:
+            return False
+        since, blocked = known_at
+        belief = self.belief
+        if blocked != belief.blocked_count:
+            return False
+        new = np.frombuffer(belief.added, dtype=np.int64)[since : belief.added_count]
+        rows, cols = new // stride, new % stride
+        via = np.abs(rows - r0) + np.abs(cols - c0) + np.abs(rows - r1) + np.abs(cols - c1)
+        return bool((via >= moves).all())
+
     def run(
         self,
         start: int,
@@ -736,16 +769,17 @@ class TargetSearch:
         excluded: list[int],
         pool: Iterable[int] | None = None,
         memo: HorizonMemo | None = None,
-        hint: tuple[int, list[int]] | None = None,
+        hint: tuple[int, list[int], tuple[int, int] | None] | None = None,
     ) -> tuple[int, int, list[int]] | None:
         """The best target as ``(rank, cell, path)`` among ``pool`` (None: the
         uncovered cells), ranked against the ``others`` (rows, columns) agents;
         ``excluded`` cells (claimed by other agents) are not candidates.
         ``memo``: the searching agent's, when ``pool`` is None. ``hint``: the
-        target the agent was heading for and its way there (``pool`` None
-        only); when it is certain that the search would return that target, it
-        is returned without one, with a shortest path there (perhaps not the
-        one the search finds: the way, when it is as short)."""
+        target the agent was heading for, its way there and the
+        ``MapBelief.stamp`` when that was last known to be a shortest way, if
+        ever (``pool`` None only): when it is certain what the search would
+        return, it is returned without one, with a shortest path there
+        (perhaps not the one the search finds: the way, when it is as short)."""
         margin = -1
         if pool is None:
             mask = self.candidate
@@ -763,11 +797,12 @@ class TargetSearch:
             mask[i] = 0
         try:
             if hint is not None and pool is None:
-                goal, way = hint
+                goal, way, known_at = hint
                 sure = self._confirm(
                     start,
                     goal,
                     way,
+                    known_at,
                     mask,
                     listed,
                     margin,

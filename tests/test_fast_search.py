@@ -25,8 +25,9 @@ def _horizon(belief: MapBelief, cells: np.ndarray, slot: int, rows, cols, workin
     others[slot] = False
     start = belief.index((int(rows[slot]), int(cols[slot])))
     candidate = np.frombuffer(belief.uncovered_mask, dtype=np.uint8)
+    home = np.frombuffer(belief.charger_dist, dtype=np.int32)
     horizon, _ = _uncontested_horizon(
-        candidate, cells, start, belief.stride, rows[others], cols[others], -1, cells
+        candidate, cells, start, belief.stride, rows[others], cols[others], -1, cells, home
     )
     return horizon
 
@@ -58,7 +59,15 @@ def test_horizon_shortlist_gives_the_full_pass_horizon(seed: int, agents: int, m
     others[0] = False
     start = belief.index((int(rows[0]), int(cols[0])))
     _, kept = _uncontested_horizon(
-        search.candidate, listed, start, belief.stride, rows[others], cols[others], 16, search._kept
+        search.candidate,
+        listed,
+        start,
+        belief.stride,
+        rows[others],
+        cols[others],
+        16,
+        search._kept,
+        search.home,
     )
     if kept < 0:
         return  # nobody else at work: no shortlist is kept (the horizon is unbounded)
@@ -106,7 +115,15 @@ def test_memo_asks_for_a_full_pass_when_a_rival_moved_beyond_the_margin() -> Non
     listed = search.uncovered_list[: belief.uncovered_count]
     rows, cols = team.others(0)
     _, kept = _uncontested_horizon(
-        search.candidate, listed, belief.index((0, 0)), belief.stride, rows, cols, 16, search._kept
+        search.candidate,
+        listed,
+        belief.index((0, 0)),
+        belief.stride,
+        rows,
+        cols,
+        16,
+        search._kept,
+        search.home,
     )
     assert far_corner not in search._kept[:kept]
     memo = HorizonMemo(team, 0)
@@ -139,8 +156,9 @@ def test_a_confirmed_hint_is_what_the_search_returns(
     seed: int, agents: int, hold: int, steps: int
 ) -> None:
     """An agent takes a target, walks part of the way while the others move, cells
-    are covered and found and the battery drains or sags: whenever the hint (the target
-    and the rest of the way) is confirmed, the search returns the same target at
+    are covered and found (some opening shorter ways) and the battery drains or
+    sags: whenever the hint (the target, the rest of the way and when it was a
+    shortest way) is confirmed, the search returns the same target at
     the same rank, by a path as long, and the path is the search's or the way."""
     rng = np.random.default_rng(seed)
     belief = MapBelief((SIDE, SIDE), (0, 0))
@@ -176,7 +194,7 @@ def test_a_confirmed_hint_is_what_the_search_returns(
     first, _ = ask()
     if first is None:
         return
-    goal, way = first[1], first[2]
+    goal, way, known_at = first[1], first[2], belief.stamp  # a shortest way, then
     for _ in range(min(steps, len(way) - 1)):
         cell = belief.cell(way.pop(0))
         team.rows[0], team.cols[0] = cell
@@ -189,9 +207,14 @@ def test_a_confirmed_hint_is_what_the_search_returns(
     for i in list(belief.uncovered):
         if rng.random() < 0.05 and i != goal:
             belief.cover(belief.cell(i), 1)
-    for r, c in rng.integers(0, SIDE, size=(int(rng.integers(0, 6)), 2)):
+    gone = np.argwhere(walls)  # walls found to be passable: shorter ways, perhaps
+    for r, c in gone[rng.permutation(len(gone))[: int(rng.integers(0, 40))]]:
         belief.mark_free(belief.index((int(r), int(c))))
-    confirmed, searched = ask((goal, list(way)))
+        if rng.random() < 0.7:  # swept at once by someone: no candidate, only a way
+            belief.cover((int(r), int(c)), 1)
+    if rng.random() < 0.2:
+        known_at = None  # a detour, say
+    confirmed, searched = ask((goal, list(way), known_at))
     assert (confirmed is None) == (searched is None)
     if confirmed is None:
         return
@@ -221,10 +244,51 @@ def test_a_candidate_reached_first_is_taken_only_if_affordable_there() -> None:
     # the wall 2 + 13 as the crow flies, but 4 + 13 by the way round.
     args = (belief.index(start), 36.0, 1.0, 20.0, 1.0, 80.0, nobody, 5, [])
     searched = search.run(*args)
-    confirmed = search.run(*args, None, None, (belief.index(goal), way))
+    confirmed = search.run(*args, None, None, (belief.index(goal), way, None))
     assert searched is not None and searched[1] == belief.index(goal)
     assert confirmed is not None and confirmed[:2] == searched[:2]
     assert len(confirmed[2]) == len(searched[2])
+
+
+def test_a_way_round_stands_until_a_shorter_one_opens(monkeypatch) -> None:
+    """The way round a wall to the last uncovered cell is confirmed as it stands
+    while the map only grows elsewhere; not once a cell on it is blocked, nor
+    once a gap opens in the wall: then the search's path is the answer."""
+    belief = MapBelief((12, 12), (11, 0))
+    wall = {(r, 5) for r in range(10)}
+    for r in range(12):
+        for c in range(12):
+            if (r, c) not in wall:
+                belief.mark_free(belief.index((r, c)))
+    start, goal = belief.index((0, 3)), belief.index((0, 8))
+    for i in list(belief.uncovered):
+        if i != goal:
+            belief.cover(belief.cell(i), 1)
+    search = TargetSearch(belief)
+    nobody = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+    args = (start, 100.0, 0.0, 20.0, 0.0, 80.0, nobody, 5, [])
+    _, _, way = search.run(*args)
+    assert len(way) == 25  # down, through the gap at the bottom, and up
+    known_at = belief.stamp
+    bounded = []
+    among = fast_search._first_among
+    monkeypatch.setattr(fast_search, "_first_among", lambda *a: bounded.append(1) or among(*a))
+
+    belief.mark_free(belief.index((11, 11)))  # the map grows far from any shorter way
+    belief.cover((11, 11), 1)
+    assert search.run(*args, None, None, (goal, way, known_at)) == (0, goal, way)
+    assert not bounded  # the way stood as it was, without a search
+
+    belief.block(belief.index((10, 5)))  # a lost vehicle in the gap the way went through
+    confirmed = search.run(*args, None, None, (goal, way, known_at))
+    assert confirmed == search.run(*args)
+    assert confirmed is not None and len(confirmed[2]) == 27
+
+    belief.mark_free(belief.index((0, 5)))  # a gap in the wall, swept at once
+    belief.cover((0, 5), 1)
+    confirmed = search.run(*args, None, None, (goal, way, known_at))
+    assert confirmed == search.run(*args)
+    assert confirmed is not None and len(confirmed[2]) == 5
 
 
 def _tracks_digest(grid, agents: int) -> str:
