@@ -141,6 +141,8 @@ def _set_message_interval(host: CommandHost, cmd: Command) -> Outcome:
 
 def _get_message_interval(host: CommandHost, cmd: Command) -> Outcome:
     message_id = int(cmd.p(1))
+    if not 0 <= message_id <= 0xFFFF:  # what MESSAGE_INTERVAL's message_id can hold
+        raise CommandRefused(f"No message {message_id}", mavlink.MAV_RESULT_DENIED)
     reply = host.encoder().message_interval_encode(message_id, host.interval_us(message_id))
     return Outcome(mavlink.MAV_RESULT_ACCEPTED, [reply])
 

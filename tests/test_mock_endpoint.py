@@ -330,6 +330,12 @@ async def test_message_interval_and_request_message() -> None:
         assert await gcs.command(request, version) == mavlink.MAV_RESULT_ACCEPTED
         assert (await asyncio.wait_for(home, 3)).altitude == 488_000
         assert await gcs.command(interval, 31000, 1000) == mavlink.MAV_RESULT_FAILED
+        ask = mavlink.MAV_CMD_GET_MESSAGE_INTERVAL
+        answer = gcs.waiter(lambda m: m.get_type() == "MESSAGE_INTERVAL")
+        assert await gcs.command(ask, hb_id) == mavlink.MAV_RESULT_ACCEPTED
+        assert (await asyncio.wait_for(answer, 3)).interval_us == 50_000
+        # An id MESSAGE_INTERVAL cannot carry (a fuzzer's find): refused, not a crash.
+        assert await gcs.command(ask, 70_000) == mavlink.MAV_RESULT_DENIED
 
 
 async def test_startup_delay_refuses_arming_and_mission_upload() -> None:
