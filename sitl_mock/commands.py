@@ -7,6 +7,7 @@ answered MAV_RESULT_UNSUPPORTED, like ArduPilot.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -49,6 +50,14 @@ class Command:
         """Parameter ``n`` (1-based, as in the MAVLink documentation)."""
         return self.params[n - 1]
 
+    def whole(self, n: int) -> int:
+        """Parameter ``n`` as a whole number (an id, a mode, flags); NaN or
+        infinity there is refused."""
+        value = self.params[n - 1]
+        if not math.isfinite(value):
+            raise CommandRefused(f"Parameter {n} is {value}", mavlink.MAV_RESULT_DENIED)
+        return int(value)
+
 
 @dataclass(frozen=True)
 class Outcome:
@@ -84,9 +93,9 @@ def _arm_disarm(host: CommandHost, cmd: Command) -> Outcome:
 
 
 def _set_mode(host: CommandHost, cmd: Command) -> Outcome:
-    if not int(cmd.p(1)) & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+    if not cmd.whole(1) & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
         raise CommandRefused("Only custom modes are supported", mavlink.MAV_RESULT_DENIED)
-    host.vehicle.set_mode(int(cmd.p(2)))
+    host.vehicle.set_mode(cmd.whole(2))
     return ACCEPTED
 
 
@@ -108,7 +117,7 @@ def _land(host: CommandHost, cmd: Command) -> Outcome:
 def _reposition(host: CommandHost, cmd: Command) -> Outcome:
     v = host.vehicle
     if v.behaviour is not Behaviour.GUIDED:
-        if not int(cmd.p(2)) & mavlink.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE:
+        if not cmd.whole(2) & mavlink.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE:
             raise CommandRefused("Reposition: not in GUIDED")
         v.set_mode(v.profile.mode_for(Behaviour.GUIDED))
     north, east = v.world.geo.geo_to_local(cmd.p(5), cmd.p(6))
@@ -117,12 +126,12 @@ def _reposition(host: CommandHost, cmd: Command) -> Outcome:
 
 
 def _mission_start(host: CommandHost, cmd: Command) -> Outcome:
-    host.vehicle.start_mission(int(cmd.p(1)))
+    host.vehicle.start_mission(cmd.whole(1))
     return ACCEPTED
 
 
 def _set_mission_current(host: CommandHost, cmd: Command) -> Outcome:
-    host.vehicle.set_current(int(cmd.p(1)))
+    host.vehicle.set_current(cmd.whole(1))
     return ACCEPTED
 
 
@@ -134,13 +143,13 @@ def _change_speed(host: CommandHost, cmd: Command) -> Outcome:
 
 
 def _set_message_interval(host: CommandHost, cmd: Command) -> Outcome:
-    if not host.set_interval(int(cmd.p(1)), cmd.p(2)):
-        raise CommandRefused(f"Message {int(cmd.p(1))} cannot be streamed")
+    if not host.set_interval(cmd.whole(1), cmd.p(2)):
+        raise CommandRefused(f"Message {cmd.whole(1)} cannot be streamed")
     return ACCEPTED
 
 
 def _get_message_interval(host: CommandHost, cmd: Command) -> Outcome:
-    message_id = int(cmd.p(1))
+    message_id = cmd.whole(1)
     if not 0 <= message_id <= 0xFFFF:  # what MESSAGE_INTERVAL's message_id can hold
         raise CommandRefused(f"No message {message_id}", mavlink.MAV_RESULT_DENIED)
     reply = host.encoder().message_interval_encode(message_id, host.interval_us(message_id))
@@ -148,9 +157,9 @@ def _get_message_interval(host: CommandHost, cmd: Command) -> Outcome:
 
 
 def _request_message(host: CommandHost, cmd: Command) -> Outcome:
-    messages = host.build(int(cmd.p(1)))
+    messages = host.build(cmd.whole(1))
     if messages is None:
-        raise CommandRefused(f"Message {int(cmd.p(1))} not available")
+        raise CommandRefused(f"Message {cmd.whole(1)} not available")
     return Outcome(mavlink.MAV_RESULT_ACCEPTED, messages)
 
 

@@ -336,6 +336,8 @@ async def test_message_interval_and_request_message() -> None:
         assert (await asyncio.wait_for(answer, 3)).interval_us == 50_000
         # An id MESSAGE_INTERVAL cannot carry (a fuzzer's find): refused, not a crash.
         assert await gcs.command(ask, 70_000) == mavlink.MAV_RESULT_DENIED
+        assert await gcs.command(ask, float("inf")) == mavlink.MAV_RESULT_DENIED
+        assert await gcs.command(ask, float("nan")) == mavlink.MAV_RESULT_DENIED
 
 
 async def test_startup_delay_refuses_arming_and_mission_upload() -> None:
