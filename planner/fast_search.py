@@ -731,6 +731,65 @@ class TargetSearch:
             return None
         return rank, cell, self._unwind(start, cell)
 
+    def _all_left_to_others(
+        self,
+        start: int,
+        candidate: np.ndarray,
+        energy: tuple[float, float, float, float, float],
+        others: tuple[np.ndarray, np.ndarray],
+        hold: int,
+    ) -> tuple[bool, tuple[int, int, list[int]] | None]:
+        """``(True, what the search returns)`` when every candidate is surely left
+        to another agent (within ``hold`` of one, and nearer to it), else
+        ``(False, None)``.
+
+        Then the search, finding no better rank, covers the whole known map
+        for the first candidate the agent can afford (rank 2: the coordinator
+        holds the agent back). Here a pass over the uncovered cells rules out
+        better ranks, a second one lists those the agent might afford, and a
+        search bounded to the ways to them finds the first, or that there is
+        none. With too many to list, only the search can tell.
+        """
+        stride = self.belief.stride
+        rows, cols = others
+        full = self.uncovered_list[: self.belief.uncovered_count]
+        home, found = self.home, self._rivals[:-1]
+        better = (UNREACHED, hold + 1, stride, rows, cols, home, energy, found)
+        if _rivals_listed(candidate, full, start, -1, *better):
+            return False, None
+        count = _rivals_listed(candidate, full, start, -1, UNREACHED, 0, *better[2:])
+        if count == 0:
+            return True, None
+        if count == self.RIVALS:
+            return False, None
+        battery, cost, floor, _, _ = energy
+        targets = found[:count]
+        bound = UNREACHED
+        if cost > 0:  # the farthest any of them can be afforded, and a move to spare
+            bound = min(UNREACHED, int((battery - floor) / cost) - int(home[targets].min()) + 1)
+        self.stamp += 1
+        rank, cell = _first_among(
+            self.state,
+            candidate,
+            targets,
+            start,
+            stride,
+            bound,
+            2,
+            hold,
+            rows,
+            cols,
+            home,
+            energy,
+            self.seen,
+            self.stamp,
+            self.parent,
+            self.queue,
+        )
+        if rank < 0:
+            return True, None
+        return True, (rank, cell, self._unwind(start, cell))
+
     def _still_shortest(
         self, start: int, goal: int, moves: int, known_at: tuple[int, int] | None
     ) -> bool:
@@ -821,6 +880,12 @@ class TargetSearch:
                     renewed = memo.shortlist(self.belief)  # by the confirmation
                     if renewed is not None:
                         listed, margin = renewed, -1
+            if pool is None and hold > 0 and others[0].size:
+                known, found = self._all_left_to_others(
+                    start, mask, (battery, cost, floor, best_cost, budget), others, hold
+                )
+                if known:
+                    return found
             self.stamp += 1
             rank, cell, kept = _search(
                 self.state,

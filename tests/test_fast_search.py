@@ -223,6 +223,49 @@ def test_a_confirmed_hint_is_what_the_search_returns(
     assert confirmed[2] in (searched[2], way)
 
 
+@settings(max_examples=200, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    agents=st.integers(2, 12),
+    hold=st.sampled_from([2, 5, 8]),
+)
+def test_all_left_to_others_is_what_the_search_finds(seed: int, agents: int, hold: int) -> None:
+    """With the other agents amid the last uncovered cells, the shortcut that
+    finds every candidate left to them gives what the search gives, cell and
+    path, or leaves the answer to the search."""
+    rng = np.random.default_rng(seed)
+    if rng.random() < 0.5:
+        walls, charger = rng.random((SIDE, SIDE)) < rng.uniform(0.0, 0.3), (0, 0)
+    else:
+        rooms = mapgen.rooms(SIDE, SIDE, seed % 1000)
+        walls, charger = rooms.obstacle.copy(), rooms.charger
+    walls[charger] = False
+    belief = MapBelief((SIDE, SIDE), charger)
+    for r, c in zip(*np.nonzero(~walls), strict=True):
+        belief.mark_free(belief.index((int(r), int(c))))
+    covered = rng.uniform(0.7, 0.99) if rng.random() < 0.3 else rng.uniform(0.99, 0.9995)
+    for i in list(belief.uncovered):
+        if rng.random() < covered:
+            belief.cover(belief.cell(i), 1)
+    team = Team(agents, (0, 0))
+    home = np.frombuffer(belief.charger_dist, dtype=np.int32)
+    free = [c for c in np.argwhere(~walls) if home[belief.index((int(c[0]), int(c[1])))] < 1000]
+    at = free[rng.integers(0, len(free))]
+    team.rows[0], team.cols[0] = at
+    left = [belief.cell(i) for i in belief.uncovered]
+    for k in range(1, agents):  # most stand among the uncovered cells
+        r, c = left[rng.integers(0, len(left))] if left and rng.random() < 0.8 else at
+        team.rows[k], team.cols[k] = r + rng.integers(-1, 2), c + rng.integers(-1, 2)
+    search = TargetSearch(belief)
+    cost = float(rng.choice([0.0, 0.1, 0.5, 1.0]))
+    start = belief.index((int(at[0]), int(at[1])))
+    args = (start, float(rng.uniform(40, 100)), cost, 20.0, cost, 80.0, team.others(0), hold, [])
+    quick = search.run(*args)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(TargetSearch, "_all_left_to_others", lambda self, *a: (False, None))
+        assert search.run(*args) == quick
+
+
 def test_a_candidate_reached_first_is_taken_only_if_affordable_there() -> None:
     """A candidate two cells away behind a wall is reached before the target on the
     way, and could be afforded were it as near as it looks, but not by the way
