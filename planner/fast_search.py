@@ -333,9 +333,9 @@ def _first_among(
     queue: np.ndarray,
 ) -> tuple[int, int]:
     """``_search`` when only the ``targets`` (candidates in range, and reached
-    from home) can be what it returns, all within ``bound`` moves: the first of them it
-    reaches that the agent can afford and that ranks ``rank`` or better, as
-    (rank, cell), or (-1, -1).
+    from home) can be what it returns, all within ``bound`` moves: the first
+    of them it reaches that the agent can afford and that ranks ``rank`` or
+    better, as (rank, cell), or (-1, -1).
 
     Breadth-first from the start in the same order, over the cells whose
     distance plus a lower bound of the way on to some target (as in
@@ -708,28 +708,41 @@ class TargetSearch:
         if count == 0 and self._still_shortest(start, goal, moves, known_at):
             return rank, goal, list(way)
         self._rivals[count] = goal
+        return self._first_among(
+            start, self._rivals[: count + 1], moves, rank, hold, others, energy
+        )
+
+    def _first_among(
+        self,
+        start: int,
+        targets: np.ndarray,
+        bound: int,
+        rank: int,
+        hold: int,
+        others: tuple[np.ndarray, np.ndarray],
+        energy: tuple[float, float, float, float, float],
+    ) -> tuple[int, int, list[int]] | None:
+        """``_first_among`` with this search's scratch arrays: (rank, cell, path)."""
         self.stamp += 1
         rank, cell = _first_among(
             self.state,
-            candidate,
-            self._rivals[: count + 1],
+            self.candidate,
+            targets,
             start,
-            stride,
-            moves,
+            self.belief.stride,
+            bound,
             rank,
             hold,
-            rows,
-            cols,
-            home,
+            others[0],
+            others[1],
+            self.home,
             energy,
             self.seen,
             self.stamp,
             self.parent,
             self.queue,
         )
-        if rank < 0:
-            return None
-        return rank, cell, self._unwind(start, cell)
+        return None if rank < 0 else (rank, cell, self._unwind(start, cell))
 
     def _all_left_to_others(
         self,
@@ -750,45 +763,22 @@ class TargetSearch:
         search bounded to the ways to them finds the first, or that there is
         none. With too many to list, only the search can tell.
         """
-        stride = self.belief.stride
-        rows, cols = others
         full = self.uncovered_list[: self.belief.uncovered_count]
-        home, found = self.home, self._rivals[:-1]
-        better = (UNREACHED, hold + 1, stride, rows, cols, home, energy, found)
-        if _rivals_listed(candidate, full, start, -1, *better):
-            return False, None
-        count = _rivals_listed(candidate, full, start, -1, UNREACHED, 0, *better[2:])
-        if count == 0:
-            return True, None
+        found = self._rivals[:-1]
+        team = (self.belief.stride, others[0], others[1], self.home, energy, found)
+        if _rivals_listed(candidate, full, start, -1, UNREACHED, hold + 1, *team):
+            return False, None  # some may rank better
+        count = _rivals_listed(candidate, full, start, -1, UNREACHED, 0, *team)
         if count == self.RIVALS:
             return False, None
-        battery, cost, floor, _, _ = energy
         targets = found[:count]
+        battery, cost, floor, _, _ = energy
         bound = UNREACHED
-        if cost > 0:  # the farthest any of them can be afforded, and a move to spare
-            bound = min(UNREACHED, int((battery - floor) / cost) - int(home[targets].min()) + 1)
-        self.stamp += 1
-        rank, cell = _first_among(
-            self.state,
-            candidate,
-            targets,
-            start,
-            stride,
-            bound,
-            2,
-            hold,
-            rows,
-            cols,
-            home,
-            energy,
-            self.seen,
-            self.stamp,
-            self.parent,
-            self.queue,
+        if count and cost > 0:  # the farthest any of them can be afforded, and a move to spare
+            bound = int((battery - floor) / cost) - int(self.home[targets].min()) + 1
+        return True, self._first_among(
+            start, targets, min(bound, UNREACHED), 2, hold, others, energy
         )
-        if rank < 0:
-            return True, None
-        return True, (rank, cell, self._unwind(start, cell))
 
     def _still_shortest(
         self, start: int, goal: int, moves: int, known_at: tuple[int, int] | None
