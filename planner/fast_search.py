@@ -272,44 +272,21 @@ def _rivals_listed(
 
 
 @njit(cache=True, nogil=True)
-def _rivals_near(
-    candidate: np.ndarray,
-    start: int,
-    goal: int,
-    reach: int,
-    limit: int,
-    stride: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    home: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-    found: np.ndarray,
-) -> int:
-    """``_rivals_listed`` over every cell within ``reach`` (Manhattan) of the
-    start, read row by row: cheaper than the list when that square is the
-    smaller."""
+def _in_square(candidate: np.ndarray, start: int, reach: int, stride: int, out: np.ndarray) -> int:
+    """The candidates within ``reach`` (Manhattan) of the start, read row by row
+    into ``out``; their count. Cheaper than passing over a long list of
+    uncovered cells when the square is the smaller."""
     r0 = start // stride
     c0 = start % stride
     rows = candidate.size // stride
-    closer = 0
     count = 0
     for r in range(max(0, r0 - reach), min(rows, r0 + reach + 1)):
         width = reach - abs(r - r0)
         base = r * stride
         for c in range(max(0, c0 - width), min(stride, c0 + width + 1)):
-            v = base + c
-            if candidate[v] == 0 or v == goal:
-                continue
-            mine = max(abs(r - r0) + abs(c - c0), abs(home[v] - home[start]))
-            if mine > reach:
-                continue
-            closer = _may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
-            if closer < 0:
-                if count == found.size:
-                    return count
-                found[count] = v
+            if candidate[base + c] != 0:
+                out[count] = base + c
                 count += 1
-                closer = 0
     return count
 
 
@@ -576,6 +553,7 @@ class TargetSearch:
         self.uncovered_list = np.frombuffer(belief.uncovered_list, dtype=np.int64)
         self._kept = np.zeros(size, dtype=np.int64)
         self._way = np.zeros(size, dtype=np.int64)
+        self._near = np.zeros(size, dtype=np.int64)
         #: Candidates that might outrank the target on the way (``_confirm``),
         #: with a place for the target.
         self._rivals = np.zeros(self.RIVALS + 1, dtype=np.int64)
@@ -693,7 +671,8 @@ class TargetSearch:
                 return None
         test = (moves, limit, stride, rows, cols, home, energy, self._rivals[:-1])
         # A listed cell costs about LIST_COST cells of the square around the start
-        # read row by row (its row and column are worked out by division).
+        # read row by row (its row and column are worked out by division; the
+        # square's few candidates are then passed over as a list).
         square = 2 * moves * moves
         if rank == 0 and listed.size * self.LIST_COST < square:
             # Cells off ``listed`` are surely contested: rank 0 needs only these.
@@ -702,7 +681,8 @@ class TargetSearch:
             full = self.uncovered_list[: self.belief.uncovered_count]
             count = _rivals_listed(candidate, full, start, goal, *test)
         else:
-            count = _rivals_near(candidate, start, goal, *test)
+            near = self._near[: _in_square(candidate, start, moves, stride, self._near)]
+            count = _rivals_listed(candidate, near, start, goal, *test)
         if count == self.RIVALS:
             return None  # too many to look at one by one: the search is as quick
         if count == 0 and self._still_shortest(start, goal, moves, known_at):
