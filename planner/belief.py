@@ -70,6 +70,8 @@ class MapBelief:
         self.added_count = 0
         #: How many free cells were blocked for good (``block``).
         self.blocked_count = 0
+        #: How many cells are known to be impassable (obstacles sensed, cells blocked).
+        self.walls_count = 0
         self._listed_at = array("q", bytes(8 * size))
         self._set_free(self.charger_index)
 
@@ -126,6 +128,7 @@ class MapBelief:
                 newly_free.append(i)
             else:
                 state[i] = _OBSTACLE
+                self.walls_count += 1
         return newly_free
 
     def cover(self, cell: Cell, agent: int) -> bool:
@@ -158,6 +161,7 @@ class MapBelief:
         self.state[i] = _OBSTACLE
         self.free_count -= 1
         self.blocked_count += 1
+        self.walls_count += 1
         self._drop_uncovered(i)
         dist = self.charger_dist
         np.frombuffer(dist, dtype=np.int32)[:] = UNREACHED  # in place: searches hold views

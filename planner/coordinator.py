@@ -22,6 +22,7 @@ from dataclasses import dataclass, field, replace
 from enum import IntEnum, StrEnum
 
 import numpy as np
+from scipy import ndimage
 
 from planner import btp
 from planner.belief import UNREACHED, MapBelief
@@ -203,7 +204,10 @@ class Coordinator:
         self.safety_net_fires = 0
         self._best_cost: float | None = None  # cache of _best_move_cost()
         #: Once a lost agent blocks cells: what the charger may still reach (``_in_range``).
-        self._open: bytearray | None = None
+        #: After a loss: the cells the charger may still reach through free or unknown
+        #: cells, as of ``_open_at`` (the belief's ``walls_count``); None before.
+        self._open: np.ndarray | None = None
+        self._open_at = -1
 
     # -- queries ------------------------------------------------------------
 
@@ -325,23 +329,16 @@ class Coordinator:
         for other in self._agents.values():
             other.path.clear()
         self._open = self._open_from_charger()
+        self._open_at = self.belief.walls_count
         self._events.append(PlannerEvent(EventKind.LOST, a.id, self.belief.cell(a.index)))
 
-    def _open_from_charger(self) -> bytearray:
+    def _open_from_charger(self) -> np.ndarray:
         """Cells the charger may still reach through free or unknown cells (a flood)."""
-        state, steps = self.belief.state, self.belief.steps
-        start = self.belief.charger_index
-        seen = bytearray(len(state))
-        seen[start] = 1
-        queue = [start]
-        while queue:
-            u = queue.pop()
-            for s in steps:
-                v = u + s
-                if not seen[v] and state[v] != _OBSTACLE:
-                    seen[v] = 1
-                    queue.append(v)
-        return seen
+        belief = self.belief
+        passable = np.frombuffer(belief.state, dtype=np.uint8) != _OBSTACLE
+        parts, _ = ndimage.label(passable.reshape(-1, belief.stride))
+        parts = parts.ravel()
+        return parts == parts[belief.charger_index]
 
     def restore(self, known: np.ndarray, covered: np.ndarray, btps: Iterable[Cell]) -> None:
         """Carry on where an earlier run of the same mission stopped (a ground station
@@ -645,8 +642,14 @@ class Coordinator:
         home = self.belief.charger_dist[index]
         if home >= UNREACHED:
             # Not connected to what we know yet: keep it, unless walls and lost
-            # vehicles cut it off from the charger even through unknown cells.
-            return self._open is None or bool(self._open[index])
+            # vehicles cut it off from the charger even through unknown cells
+            # (walls found since the last look may have closed the way).
+            if self._open is None:
+                return True
+            if self._open_at != self.belief.walls_count:
+                self._open = self._open_from_charger()
+                self._open_at = self.belief.walls_count
+            return bool(self._open[index])
         return 2 * home * self._best_move_cost() <= self._range_budget_pct
 
     def _go_charge(self, a: _Agent) -> Action:

@@ -16,11 +16,15 @@ from typing import Any
 
 import pytest
 from mcap.reader import make_reader
+from scipy import ndimage
 
 from gcs.cli import main
+from gcs.log_reader import read_log
 from gcs.mission import load_mission
 from gcs.sitl_cli import mock_fleet_configs
+from planner.grid import CellState
 from sitl_mock.fleet import MockFleet
+from sitl_mock.maps import parse_ascii
 from vehicles.clock import ScaledClock
 from vehicles.endpoints import free_loopback_udp_ports
 
@@ -242,13 +246,25 @@ def test_battery_noise_and_sags_lose_nobody(tmp_path: Path) -> None:
 
 
 def test_cut_link_vehicle_is_lost_and_others_finish(tmp_path: Path) -> None:
+    """The others cover every cell they can still reach, and the run ends. Where the
+    lost vehicle stands (or, between two cells, may stand) nobody passes: lost in the
+    two-cell passage to the west rooms, it cuts them off, and only then is coverage
+    short of 100 %."""
     mission = write_mission(tmp_path, MID, [{"type": "rover"}] * 3)
     out = tmp_path / "live"
     code = run_sim(mission, out, "--sim-cut", "2:20:1000", "--lost-after", "15")
     got = report(out)
     assert code == 1, got  # a vehicle was lost
-    assert got["coverage_pct"] == 100.0
     assert [a["id"] for a in got["agents"] if a["lost"]] == [2]
+    assert not got.get("aborted"), got  # finished, not stopped at the time limit
+    truth = parse_ascii(MID)
+    final = read_log(out / "mission.mcap")
+    passable = ~truth.obstacle & (final.belief != int(CellState.OBSTACLE))
+    reachable = ndimage.label(passable)[0]
+    reachable = reachable == reachable[truth.charger]
+    assert final.covered[reachable].all()
+    if reachable.sum() == (~truth.obstacle).sum():
+        assert got["coverage_pct"] == 100.0
 
 
 def test_packet_loss_still_complete(tmp_path: Path) -> None:

@@ -344,6 +344,23 @@ def test_an_agent_walled_in_by_a_lost_one_gives_up() -> None:
     assert c.mode(2) == AgentMode.DONE and c.finished
 
 
+def test_walls_found_after_a_loss_close_the_way_round() -> None:
+    """A vehicle lost in the only known door: the cell beyond stays worth going to
+    while the unknown might hold another way round from the charger, and is out of
+    range once walls found later close it (before, the mission waited for it until
+    its time limit)."""
+    c = Coordinator((3, 4), (0, 0), [AgentSpec(1, 0.0), AgentSpec(2, 0.0)], PlannerSettings())
+    c.observe(1, (0, 0), {Direction.E: FREE}, 100.0)
+    c.observe(2, (0, 0), {}, 100.0)
+    c.observe(2, (0, 1), {Direction.E: FREE}, 100.0)  # agent 2 in the door sees (0, 2)...
+    c.mark_lost(2)  # ...and is lost there
+    assert c.belief.distance_to_charger((0, 2)) >= UNREACHED
+    assert not c.coverage_complete  # perhaps a way round through the unknown, south
+    c.observe(1, (0, 0), {Direction.S: OBST}, 100.0)  # the way south is a wall
+    assert c.coverage_complete
+    assert c.out_of_range_cells() == [(0, 2)]
+
+
 def _walk_to_the_far_end(far_transit_recheck: int) -> tuple[int, int]:
     """Searches (target events) and moves of one agent crossing a long corridor whose
     only uncovered cell is at the far end."""
