@@ -203,9 +203,9 @@ class Coordinator:
         self.btps_detected = 0
         self.safety_net_fires = 0
         self._best_cost: float | None = None  # cache of _best_move_cost()
-        #: Once a lost agent blocks cells: what the charger may still reach (``_in_range``).
         #: After a loss: the cells the charger may still reach through free or unknown
-        #: cells, as of ``_open_at`` (the belief's ``walls_count``); None before.
+        #: cells (``_in_range``), as of ``_open_at`` (the belief's ``walls_count``);
+        #: None before.
         self._open: np.ndarray | None = None
         self._open_at = -1
 
@@ -328,17 +328,19 @@ class Coordinator:
             self._release(a.pending, a.id)
         for other in self._agents.values():
             other.path.clear()
-        self._open = self._open_from_charger()
-        self._open_at = self.belief.walls_count
+        self._open_from_charger()
         self._events.append(PlannerEvent(EventKind.LOST, a.id, self.belief.cell(a.index)))
 
     def _open_from_charger(self) -> np.ndarray:
-        """Cells the charger may still reach through free or unknown cells (a flood)."""
+        """Cells the charger may still reach through free or unknown cells, worked
+        out again only when walls were found since the last time."""
         belief = self.belief
-        passable = np.frombuffer(belief.state, dtype=np.uint8) != _OBSTACLE
-        parts, _ = ndimage.label(passable.reshape(-1, belief.stride))
-        parts = parts.ravel()
-        return parts == parts[belief.charger_index]
+        if self._open is None or self._open_at != belief.walls_count:
+            passable = np.frombuffer(belief.state, dtype=np.uint8) != _OBSTACLE
+            parts, _ = ndimage.label(passable.reshape(-1, belief.stride))
+            parts = parts.ravel()
+            self._open, self._open_at = parts == parts[belief.charger_index], belief.walls_count
+        return self._open
 
     def restore(self, known: np.ndarray, covered: np.ndarray, btps: Iterable[Cell]) -> None:
         """Carry on where an earlier run of the same mission stopped (a ground station
@@ -644,12 +646,7 @@ class Coordinator:
             # Not connected to what we know yet: keep it, unless walls and lost
             # vehicles cut it off from the charger even through unknown cells
             # (walls found since the last look may have closed the way).
-            if self._open is None:
-                return True
-            if self._open_at != self.belief.walls_count:
-                self._open = self._open_from_charger()
-                self._open_at = self.belief.walls_count
-            return bool(self._open[index])
+            return self._open is None or bool(self._open_from_charger()[index])
         return 2 * home * self._best_move_cost() <= self._range_budget_pct
 
     def _go_charge(self, a: _Agent) -> Action:

@@ -609,15 +609,10 @@ class TargetSearch:
         goal: int,
         way: list[int],
         known_at: tuple[int, int] | None,
-        candidate: np.ndarray,
         listed: np.ndarray,
         margin: int,
         memo: HorizonMemo | None,
-        battery: float,
-        cost: float,
-        floor: float,
-        best_cost: float,
-        budget: float,
+        energy: tuple[float, float, float, float, float],
         others: tuple[np.ndarray, np.ndarray],
         hold: int,
     ) -> tuple[int, int, list[int]] | None:
@@ -636,10 +631,12 @@ class TargetSearch:
         ``way`` is the answer as it stands if it is still a shortest way
         (``_still_shortest``).
         """
+        candidate = self.candidate
         if candidate[goal] == 0:
             return None
         moves = len(way)
         home = self.home
+        battery, cost, floor, best_cost, budget = energy
         back = int(home[goal])
         if back >= UNREACHED or 2.0 * back * best_cost > budget:
             return None
@@ -656,7 +653,6 @@ class TargetSearch:
             rank, limit = 1, hold + 1
         else:
             return None  # left to the agent beside it: the search looks for another
-        energy = (battery, cost, floor, best_cost, budget)
         if rank > 0:
             # No candidate may be uncontested, however far. The search's horizon
             # pass (which also renews the memo's shortlist) finds none in Manhattan
@@ -727,7 +723,6 @@ class TargetSearch:
     def _all_left_to_others(
         self,
         start: int,
-        candidate: np.ndarray,
         energy: tuple[float, float, float, float, float],
         others: tuple[np.ndarray, np.ndarray],
         hold: int,
@@ -743,7 +738,7 @@ class TargetSearch:
         search bounded to the ways to them finds the first, or that there is
         none. With too many to list, only the search can tell.
         """
-        full = self.uncovered_list[: self.belief.uncovered_count]
+        candidate, full = self.candidate, self.uncovered_list[: self.belief.uncovered_count]
         found = self._rivals[:-1]
         team = (self.belief.stride, others[0], others[1], self.home, energy, found)
         if _rivals_listed(candidate, full, start, -1, UNREACHED, hold + 1, *team):
@@ -824,25 +819,14 @@ class TargetSearch:
         saved = [(i, mask[i]) for i in excluded]
         for i, _ in saved:
             mask[i] = 0
+        # The shortcuts read the uncovered cells' mask (``self.candidate``) with
+        # the claimed cells masked out, as the search does.
+        energy = (battery, cost, floor, best_cost, budget)
         try:
             if hint is not None and pool is None:
                 goal, way, known_at = hint
                 sure = self._confirm(
-                    start,
-                    goal,
-                    way,
-                    known_at,
-                    mask,
-                    listed,
-                    margin,
-                    memo,
-                    battery,
-                    cost,
-                    floor,
-                    best_cost,
-                    budget,
-                    others,
-                    hold,
+                    start, goal, way, known_at, listed, margin, memo, energy, others, hold
                 )
                 if sure is not None:
                     return sure
@@ -851,9 +835,7 @@ class TargetSearch:
                     if renewed is not None:
                         listed, margin = renewed, -1
             if pool is None and hold > 0 and others[0].size:
-                known, found = self._all_left_to_others(
-                    start, mask, (battery, cost, floor, best_cost, budget), others, hold
-                )
+                known, found = self._all_left_to_others(start, energy, others, hold)
                 if known:
                     return found
             self.stamp += 1
