@@ -48,6 +48,14 @@ _MIN_NAV_ALT_M = 0.5
 ARM_FORCE_MAGIC = 2989
 DISARM_FORCE_MAGIC = 21196
 
+#: ArduPilot's two battery failsafe levels; a pack below critical stays at critical.
+_FAILSAFE_LEVEL = {
+    ChargeState.LOW: 1,
+    ChargeState.CRITICAL: 2,
+    ChargeState.EMERGENCY: 2,
+}
+_FAILSAFE_NAMES = {1: "low", 2: "critical"}
+
 
 @dataclass(frozen=True)
 class VehicleSettings:
@@ -129,7 +137,7 @@ class Vehicle:
         self._refused_goal: Goal | None = None
         self._wait_s = 0.0
         self._ground_idle_s = 0.0
-        self._worst_charge_state = ChargeState.OK
+        self._failsafe_level = 0
         self._gcs = GcsWatch(settings.gcs_failsafe)
         self._listeners: list[Callable[[VehicleEvent], None]] = []
 
@@ -441,16 +449,19 @@ class Vehicle:
             self._die("Battery exhausted: vehicle lost")
 
     def _report_charge_state(self) -> None:
+        """Announce the battery failsafe as ArduPilot does (AP_BattMonitor): once per level
+        reached, low then critical, as a WARNING with the pack's voltage and charge used."""
         state = self.battery.charge_state
-        order = (ChargeState.OK, ChargeState.LOW, ChargeState.CRITICAL, ChargeState.EMERGENCY)
-        if state not in order:
-            if state is ChargeState.CHARGING:
-                self._worst_charge_state = ChargeState.OK
+        if state is ChargeState.CHARGING:
+            self._failsafe_level = 0
             return
-        if order.index(state) > order.index(self._worst_charge_state):
-            pct = self.battery.remaining_pct
-            self._say(f"Battery {state.name.lower()}: {pct:.0f}% remaining", Severity.CRITICAL)
-        self._worst_charge_state = state
+        level = _FAILSAFE_LEVEL.get(state, 0)
+        if level > self._failsafe_level:
+            b = self.battery
+            name = _FAILSAFE_NAMES[level]
+            used = f"{b.voltage_v:.2f}V used {b.consumed_mah:.0f} mAh"
+            self._say(f"Battery 1 is {name} {used}", Severity.WARNING)
+            self._failsafe_level = level
 
     def _auto_disarm(self, dt_s: float) -> None:
         limit = self.settings.copter_auto_disarm_s

@@ -145,6 +145,20 @@ def test_battery_charge_states() -> None:
     assert b.charge_state is ChargeState.EMERGENCY
 
 
+def test_battery_failsafe_is_announced_as_ardupilot_does() -> None:
+    """ArduPilot says "Battery 1 is low|critical <V> used <mAh>" once per level, as a
+    WARNING; a ground station must not take it for an error."""
+    world = world_of(["C" + "." * 40])
+    v, events = guided_rover(world, battery=BatterySettings(start_pct=35.0, energy_per_m_pct=1.0))
+    v.goto(*centre(world, (0, 40)))
+    run(v, 60.0)
+    said = [e for e in events if isinstance(e, StatusText)]
+    warnings = [e for e in said if e.text.startswith("Battery 1 is")]
+    assert [w.text.split()[3] for w in warnings] == ["low", "critical"]
+    assert all(w.severity == mavlink.MAV_SEVERITY_WARNING for w in warnings)
+    assert all(w.text.endswith(" mAh") and "V used " in w.text for w in warnings)
+
+
 def test_battery_noise_is_seeded_and_bounded() -> None:
     def drain(seed: int) -> float:
         b = Battery(BatterySettings(noise_fraction=0.2), random.Random(seed))
