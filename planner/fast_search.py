@@ -763,7 +763,10 @@ class TargetSearch:
         So when ``moves`` is the Manhattan distance. So too when a way that
         long was a shortest way at ``known_at`` (``MapBelief.stamp``, and the
         agent has kept to it since), no cell was blocked since, and no cell
-        that became free since lies where a shorter way could pass.
+        that became free since lies where a shorter way could pass: by the
+        bounds of ``_rivals_listed`` (in rooms, most new cells lie within the
+        Manhattan bound of a way round a wall, but their distance home, as
+        known now, tells that they are too far from one end or the other).
         """
         stride = self.belief.stride
         r0, c0, r1, c1 = start // stride, start % stride, goal // stride, goal % stride
@@ -777,8 +780,11 @@ class TargetSearch:
             return False
         new = np.frombuffer(belief.added, dtype=np.int64)[since : belief.added_count]
         rows, cols = new // stride, new % stride
-        via = np.abs(rows - r0) + np.abs(cols - c0) + np.abs(rows - r1) + np.abs(cols - c1)
-        return bool((via >= moves).all())
+        home = self.home
+        at = home[new].astype(np.int64)
+        there = np.maximum(np.abs(rows - r0) + np.abs(cols - c0), np.abs(at - int(home[start])))
+        on = np.maximum(np.abs(rows - r1) + np.abs(cols - c1), np.abs(at - int(home[goal])))
+        return bool((there + on >= moves).all())
 
     def run(
         self,

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from gcs.simulate import simulate
 from planner import fast_search
-from planner.belief import MapBelief
+from planner.belief import UNREACHED, MapBelief
 from planner.fast_search import HorizonMemo, TargetSearch, Team, _uncontested_horizon
 from sitl_mock import mapgen
 from tests.checks import make_mission
@@ -260,6 +260,60 @@ def test_all_left_to_others_is_what_the_search_finds(seed: int, agents: int, hol
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(TargetSearch, "_all_left_to_others", lambda self, *a: (False, None))
         assert search.run(*args) == quick
+
+
+def _true_distances(walls: np.ndarray, source: tuple[int, int]) -> np.ndarray:
+    distance = np.full(walls.shape, -1)
+    distance[source] = 0
+    frontier = [source]
+    while frontier:
+        following = []
+        for r, c in frontier:
+            for nr, nc in ((r - 1, c), (r + 1, c), (r, c - 1), (r, c + 1)):
+                inside = 0 <= nr < walls.shape[0] and 0 <= nc < walls.shape[1]
+                if inside and not walls[nr, nc] and distance[nr, nc] < 0:
+                    distance[nr, nc] = distance[r, c] + 1
+                    following.append((nr, nc))
+        frontier = following
+    return distance
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    known=st.floats(0.1, 0.9),
+    found=st.floats(0.0, 1.0),
+)
+def test_a_way_still_shortest_has_none_shorter(seed: int, known: float, found: float) -> None:
+    """A shortest way between two cells of a partly explored rooms map; more of the
+    map is found (a wavefront from the charger, ragged): whenever
+    ``_still_shortest`` says the way is still a shortest one, no shorter one
+    opened. The cells found lie within the Manhattan bound of ways round
+    walls, so the charger's distances (the landmark bound) decide."""
+    rng = np.random.default_rng(seed)
+    grid = mapgen.rooms(SIDE, SIDE, seed % 1000)
+    walls, charger = grid.obstacle.copy(), grid.charger
+    walls[charger] = False
+    reach = _true_distances(walls, charger)
+    cells = np.argwhere(reach >= 0)
+    order = cells[np.argsort(reach[reach >= 0] + rng.uniform(0, 8, len(cells)), kind="stable")]
+    belief = MapBelief((SIDE, SIDE), charger)
+    first = int(known * len(order))
+    for r, c in order[:first]:
+        belief.mark_free(belief.index((int(r), int(c))))
+    search = TargetSearch(belief)
+    home = np.frombuffer(belief.charger_dist, dtype=np.int32)
+    known_cells = (belief.index((int(r), int(c))) for r, c in order[:first])
+    ends = [i for i in known_cells if home[i] < UNREACHED]  # joined to the known map
+    start, goal = (ends[k] for k in rng.integers(0, len(ends), 2))
+    way = search.path(start, goal)
+    assert way is not None
+    known_at = belief.stamp
+    for r, c in order[first : first + int(found * (len(order) - first))]:
+        belief.mark_free(belief.index((int(r), int(c))))
+    if search._still_shortest(start, goal, len(way), known_at):
+        shortest = search.path(start, goal)
+        assert shortest is not None and len(shortest) == len(way)
 
 
 def test_a_candidate_reached_first_is_taken_only_if_affordable_there() -> None:
