@@ -55,12 +55,21 @@ class LockstepWorld:
         self._stride = grid.shape[1] + 2
         self._free = np.pad(~grid.obstacle, 1, constant_values=False).tobytes()
         self._offsets = [(d, d.value[0] * self._stride + d.value[1]) for d in NEIGHBOURS]
+        #: Readings by the 3x3 block of free bytes around a cell: at most 512 of them.
+        self._readings: dict[bytes, dict[Direction, CellState]] = {}
 
     def sense(self, cell: Cell) -> dict[Direction, CellState]:
         """The 8 neighbours of ``cell``: free or obstacle (the paper's eq. 2)."""
-        i = (cell[0] + 1) * self._stride + cell[1] + 1
+        s = self._stride
+        i = (cell[0] + 1) * s + cell[1] + 1
         free = self._free
-        return {d: CellState.FREE if free[i + k] else CellState.OBSTACLE for d, k in self._offsets}
+        block = free[i - s - 1 : i - s + 2] + free[i - 1 : i + 2] + free[i + s - 1 : i + s + 2]
+        readings = self._readings.get(block)
+        if readings is None:
+            readings = self._readings[block] = {
+                d: CellState.FREE if free[i + k] else CellState.OBSTACLE for d, k in self._offsets
+            }
+        return dict(readings)
 
     def move(self, agent: int, to: Cell) -> None:
         if agent in self.dead:
