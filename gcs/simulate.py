@@ -186,7 +186,7 @@ def simulate(
             if i in world.dead or ready_at[i] > now + 1e-9:
                 continue
             tick = time.perf_counter()
-            homing = coordinator.mode(i) == AgentMode.HOMING or coordinator.coverage_complete
+            homing = coordinator.mode(i) == AgentMode.HOMING or coordinator.homeward
             action = coordinator.decide(i)
             planner_s += time.perf_counter() - tick
             if action.kind == ActionKind.MOVE:

@@ -196,6 +196,7 @@ class Coordinator:
         self._events: list[PlannerEvent] = []
         self._complete = False
         self._witness: int | None = None  # see ``coverage_complete``
+        self._recalled = False  # see ``recall``
         self._search = TargetSearch(self.belief)
         self._roadmap = (
             Roadmap(self.settings) if self.settings.path_planner == PathPlannerKind.PRM else None
@@ -247,6 +248,12 @@ class Coordinator:
         return complete
 
     @property
+    def homeward(self) -> bool:
+        """Every agent is to go home and stop there: coverage is complete, or the
+        mission was recalled."""
+        return self._recalled or self.coverage_complete
+
+    @property
     def finished(self) -> bool:
         return all(a.mode in (AgentMode.DONE, AgentMode.LOST) for a in self._agents.values())
 
@@ -296,6 +303,12 @@ class Coordinator:
                 if self.stacks.push(a.id, x):
                     self.btps_detected += 1
                     self._events.append(PlannerEvent(EventKind.BTP_DETECTED, a.id, belief.cell(x)))
+
+    def recall(self) -> None:
+        """End the mission before coverage is complete (the operator aborts): every
+        agent goes home as when it is complete, along the same ways that keep agents
+        apart, and is done there; one charging is done at once."""
+        self._recalled = True
 
     def update_battery(self, agent: int, battery_pct: float) -> None:
         """New battery telemetry without a move (e.g. while charging)."""
@@ -372,7 +385,7 @@ class Coordinator:
             a.trailing = None
         if a.mode == AgentMode.LOST:
             return WAIT
-        if a.mode in (AgentMode.DONE, AgentMode.HOMING) and not self.coverage_complete:
+        if a.mode in (AgentMode.DONE, AgentMode.HOMING) and not self.homeward:
             a.mode = AgentMode.IDLE  # back to work: something came into range again
         if a.mode == AgentMode.DONE:
             return WAIT
@@ -380,7 +393,7 @@ class Coordinator:
         if self.belief.charger_dist[a.index] == UNREACHED:
             return self._reconnect(a)
         if a.mode == AgentMode.CHARGE:
-            if a.battery_pct < self.settings.resume_pct - _EPS:
+            if a.battery_pct < self.settings.resume_pct - _EPS and not self._recalled:
                 return CHARGE
             a.mode = AgentMode.IDLE
         if (
@@ -397,13 +410,13 @@ class Coordinator:
                 return action
         if a.letting_pass is not None and self._still_letting_pass(a):
             return WAIT
-        if self.coverage_complete and a.mode not in (AgentMode.RETURN, AgentMode.HOMING):
+        if self.homeward and a.mode not in (AgentMode.RETURN, AgentMode.HOMING):
             self._drop_claim(a)
             a.mode = AgentMode.HOMING
             a.path.clear()
         if a.mode in (AgentMode.RETURN, AgentMode.HOMING):
             if at_charger:
-                if a.mode == AgentMode.HOMING:
+                if a.mode == AgentMode.HOMING or self._recalled:
                     a.mode = AgentMode.DONE
                     return WAIT
                 a.mode = AgentMode.CHARGE

@@ -1,4 +1,5 @@
-"""Ctrl-C on a live mission: exit 130, nobody lost, a readable log and a report."""
+"""Ctrl-C on a live mission: exit 130, everyone home, nobody lost, a readable log
+and a report."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from gcs.log_reader import read_log
+from gcs.mission import load_mission
 
 DEMO = Path(__file__).resolve().parents[1] / "missions" / "demo.yaml"
 
@@ -55,4 +57,9 @@ def test_ctrl_c_sends_everyone_home_and_closes_the_log(tmp_path: Path) -> None:
     result = read_log(out / "mission.mcap")
     assert not result.complete
     assert result.lost_agents == 0
+    # Brought home by the planner (not each sent on its own): every vehicle's last
+    # arrival is on the charger.
+    charger = load_mission(DEMO).charger
+    assert [a.track[-1] for a in result.agents] == [charger] * len(result.agents)
+    assert "not home" not in stdout + stderr
     assert (out / "report.json").exists()

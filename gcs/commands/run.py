@@ -1,7 +1,9 @@
 """``gcs run MISSION.yaml``: the live mission over MAVLink (``--sim``: against the mock fleet).
 
-Ctrl-C aborts safely: every vehicle is sent to charge (or held where it is
-if it cannot be), the log is closed, and what was done is reported.
+Ctrl-C aborts safely: the planner brings every vehicle home and parks it, along
+the ways that keep vehicles apart (as at the end of a mission); one not home in
+time is sent to charge on its own (or held where it is if it cannot be); the
+log is closed, and what was done is reported. A second Ctrl-C stops at once.
 """
 
 from __future__ import annotations

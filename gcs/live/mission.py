@@ -15,8 +15,10 @@ Order of events:
    not ready, as ArduPilot needs after boot);
 3. the planner with one agent per vehicle, each with its own energy estimate;
 4. every agent task at once; the mission ends when every vehicle is home
-   (or lost), on the time limit, or on an abort (Ctrl-C), after which every
-   vehicle is sent to charge (or held);
+   (or lost), on the time limit, or on an abort (Ctrl-C), after which the
+   planner brings every vehicle home as at the end of a mission (the same
+   ways that keep vehicles apart); one not home within ``abort_return_s`` is
+   sent to charge on its own (or held);
 5. a ``RunResult``, also written to the mission log.
 """
 
@@ -115,7 +117,8 @@ class LiveOptions:
     link_lost_after_s: float = 3.0
     #: Stop (and send everyone home) after this many mission seconds; None: no limit.
     time_limit_s: float | None = None
-    #: Mission seconds given to the fleet to get home after an abort.
+    #: Mission seconds given to the fleet to get home under the planner after an
+    #: abort (then as much again to a vehicle sent home on its own).
     abort_return_s: float = 300.0
     faults: SimFaults = field(default_factory=SimFaults)
     agent: AgentSettings = field(default_factory=AgentSettings)
@@ -474,6 +477,7 @@ async def _fly(
     tasks = {sysid: asyncio.ensure_future(agent.run()) for sysid, agent in agents.items()}
     stop = asyncio.ensure_future(abort.wait())
     limit = None if options.time_limit_s is None else run.clock.to_real(options.time_limit_s)
+    interrupted = False
     try:
         done, _ = await asyncio.wait(
             [*tasks.values(), stop], timeout=limit, return_when=asyncio.FIRST_COMPLETED
@@ -487,17 +491,32 @@ async def _fly(
                 timeout=remaining,
                 return_when=asyncio.FIRST_COMPLETED,
             )
-    finally:
         interrupted = not all(t.done() for t in tasks.values())
+        if interrupted:
+            # Home under the planner, which keeps the vehicles out of each other's way,
+            # as at the end of a mission; whoever is not home in time is sent directly.
+            run.aborted = True
+            why = "aborted by the operator" if abort.is_set() else "time limit reached"
+            notify(f"mission {why}: every vehicle goes home", Level.WARNING, None)
+            mission_log.event(planner.t_s, f"mission {why}", "warning")
+            planner.recall()
+            await asyncio.wait(
+                [t for t in tasks.values() if not t.done()],
+                timeout=run.clock.to_real(options.abort_return_s),
+            )
+    finally:
+        late = [agents[sysid] for sysid, task in tasks.items() if not task.done()]
         for task in (*tasks.values(), stop):
             task.cancel()
         await asyncio.gather(*tasks.values(), stop, return_exceptions=True)
-    if interrupted:
-        run.aborted = True
-        why = "aborted by the operator" if abort.is_set() else "time limit reached"
-        notify(f"mission {why}: sending every vehicle to charge", Level.WARNING, None)
-        mission_log.event(planner.t_s, f"mission {why}", "warning")
-        going = [a for sysid, a in agents.items() if not record.agents[sysid].lost]
+    going = [a for a in late if not record.agents[a.id].lost]
+    if going:
+        notify(
+            f"{len(going)} vehicle(s) not home {options.abort_return_s:g} s after the abort: "
+            "each is sent to charge on its own, or held",
+            Level.WARNING,
+            None,
+        )
         outcomes = await asyncio.gather(
             *(send_home(agent, options.abort_return_s) for agent in going),
             return_exceptions=True,

@@ -187,7 +187,7 @@ class SharedPlanner:
         tick = time.perf_counter()
         coordinator = self.coordinator
         before = coordinator.mode(agent)
-        homing = before == AgentMode.HOMING or coordinator.coverage_complete
+        homing = before == AgentMode.HOMING or coordinator.homeward
         action = coordinator.decide(agent)
         self.planner_s += time.perf_counter() - tick
         if action.kind == ActionKind.MOVE:
@@ -251,6 +251,11 @@ class SharedPlanner:
         self.notify(f"vehicle {agent} lost: {why}; the others carry on", Level.ERROR, agent)
         self.log.event(self.t_s, f"vehicle {agent} lost: {why}", "error", agent)
         self._after(agent, AgentMode.LOST, force_coverage=True)
+        self.changed.notify()
+
+    def recall(self) -> None:
+        """Bring every vehicle home under the planner (an abort), and wake those waiting."""
+        self.coordinator.recall()
         self.changed.notify()
 
     def mode(self, agent: int) -> AgentMode:
