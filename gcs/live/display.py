@@ -160,7 +160,9 @@ class LiveDisplay:
         free = max(1, record.free_cells)
         pct = 100.0 * min(covered, free) / free
         left = ""
-        if planner.coordinator.coverage_complete:
+        if run.aborted:
+            left = "aborted, going home"
+        elif planner.coordinator.coverage_complete:
             left = "coverage complete, going home"
         elif covered > 1 and elapsed > 0:
             left = f"~{_clock((free - covered) * elapsed / covered)} to cover the rest"
