@@ -5,7 +5,7 @@
    The battery is set so that a round trip to the farthest cell costs two thirds of
    the usable charge: the staying alive policy is at work at every size. Each case
    runs in a child process of its own (its peak memory is the child's), and is
-   stopped after ``--case-limit`` seconds.
+   stopped after ``--case-limit`` seconds (then reported with the coverage it reached).
 2. Live ground station: one ``gcs run --sim`` in this process (the mock fleet in the
    same event loop) with 1, 16 and 64 vehicles on an open map sized to the fleet:
    decision latency (arrival and sensing in, the next guided target out), event-loop
@@ -52,6 +52,8 @@ from vehicles.endpoints import free_loopback_udp_ports
 
 GENERATORS = {"rooms": mapgen.rooms, "open": mapgen.open_field}
 MAP_SEED = 1
+#: Wall seconds between a planner case's reports of its coverage so far.
+PROGRESS_EVERY_S = 1.0
 RESERVE_PCT = 20.0
 #: A round trip to the farthest cell costs this share of the usable charge.
 FARTHEST_TRIP_SHARE = 2 / 3
@@ -157,17 +159,28 @@ def _mission(
 
 
 def _run_case(case: PlannerCase, out: Connection) -> None:
-    """In a child process: generate, simulate, send back the figures."""
+    """In a child process: generate, simulate, send back the figures (and, every
+    ``PROGRESS_EVERY_S`` meanwhile, the coverage so far: a case stopped at its limit
+    is reported with how far it got)."""
     t0 = time.perf_counter()
     grid = GENERATORS[case.kind](case.size, case.size, MAP_SEED)
     mission = case_mission(grid, case.agents, f"{case.kind}{case.size}")
     planner = replace(mission.planner, far_transit_recheck=case.far_transit_recheck)
     mission = replace(mission, planner=planner)
     setup_s = time.perf_counter() - t0
-    result = simulate(mission)
+    next_report = time.perf_counter()
+
+    def report(iteration: int, covered: int, free: int) -> None:
+        nonlocal next_report
+        if time.perf_counter() >= next_report:
+            next_report += PROGRESS_EVERY_S
+            out.send({"iterations": iteration, "coverage_pct": round(100 * covered / free, 2)})
+
+    result = simulate(mission, progress=report)
     steps = max(1, result.iterations * case.agents)
     out.send(
         {
+            "done": True,
             **asdict(case),
             "free_cells": result.free_cells,
             "setup_s": round(setup_s, 2),
@@ -193,14 +206,18 @@ def run_planner_case(case: PlannerCase, limit_s: float) -> dict[str, Any]:
     child = context.Process(target=_run_case, args=(case, send), daemon=True)
     child.start()
     send.close()
+    deadline = time.perf_counter() + limit_s
+    so_far: dict[str, Any] = {}
     try:
-        if receive.poll(limit_s):
+        while receive.poll(max(0.0, deadline - time.perf_counter())):
             try:
-                return receive.recv()
+                message = receive.recv()
             except EOFError:
-                pass
-            return {**asdict(case), "error": "the case failed (see stderr)"}
-        return {**asdict(case), "error": f"over {limit_s:g} s"}
+                return {**asdict(case), "error": "the case failed (see stderr)"}
+            if message.pop("done", False):
+                return message
+            so_far = message
+        return {**asdict(case), **so_far, "error": f"over {limit_s:g} s"}
     finally:
         if child.is_alive():
             child.terminate()
@@ -231,7 +248,8 @@ def planner_table(rows: list[dict[str, Any]], far_transit_recheck: int | None = 
     for r in rows:
         label = f"{r['kind']} {r['size']}x{r['size']}"
         if "error" in r:
-            table.add_row(label, "", str(r["agents"]), r["error"], *[""] * 8)
+            reached = f"{r['coverage_pct']:.1f}" if "coverage_pct" in r else ""
+            table.add_row(label, "", str(r["agents"]), r["error"], *[""] * 3, reached, *[""] * 4)
             continue
         table.add_row(
             label,

@@ -43,13 +43,16 @@ def test_the_planner_option_reaches_the_cases(tmp_path: Path, capsys) -> None:
     assert "far_transit_recheck 4" in capsys.readouterr().out
 
 
-def test_a_case_over_its_limit_is_reported_not_waited_for(tmp_path: Path) -> None:
+def test_a_case_over_its_limit_is_reported_not_waited_for(tmp_path: Path, capsys) -> None:
+    """Stopped at its limit, with how far it got (its coverage reported meanwhile)."""
     out = tmp_path / "perf.json"
     args = ["bench", "perf", "--sizes", "300", "--agents", "50", "--kinds", "rooms"]
-    code = main([*args, "--skip-live", "--case-limit", "0.5", "--json", str(out)])
+    code = main([*args, "--skip-live", "--case-limit", "4", "--json", str(out)])
     assert code == 1
     (row,) = json.loads(out.read_text())["planner"]
-    assert row["error"] == "over 0.5 s"
+    assert row["error"] == "over 4 s"
+    assert 0 <= row["coverage_pct"] < 100 and row["iterations"] > 0
+    assert f"{row['coverage_pct']:.1f}" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize(
