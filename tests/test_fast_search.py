@@ -344,6 +344,32 @@ def test_a_candidate_reached_first_is_taken_only_if_affordable_there() -> None:
     assert len(confirmed[2]) == len(searched[2])
 
 
+def test_left_to_others_counts_only_if_affordable_by_the_way_there() -> None:
+    """The last candidate, behind a wall, is left to an agent beside it: the agent
+    would be held back if it could afford it, which it could as the crow flies
+    but not by the way round. So the shortcut finds nothing, as the search says."""
+    belief = MapBelief((22, 12), (0, 0))
+    wall = {(9, 4), (9, 5)}
+    for r in range(22):
+        for c in range(12):
+            if (r, c) not in wall:
+                belief.mark_free(belief.index((r, c)))
+    start, behind = (10, 5), (8, 5)
+    for i in list(belief.uncovered):
+        if belief.cell(i) != behind:
+            belief.cover(belief.cell(i), 1)
+    search = TargetSearch(belief)
+    beside = (np.array([7], dtype=np.int64), np.array([5], dtype=np.int64))
+    # Battery 36, 1 a move, floor 20: 2 + 13 home as the crow flies, 4 + 13 round.
+    args = (belief.index(start), 36.0, 1.0, 20.0, 1.0, 80.0, beside, 5, [])
+    assert search.run(*args) is None
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(TargetSearch, "_all_left_to_others", lambda self, *a: (False, None))
+        assert search.run(*args) is None
+    args = (belief.index(start), 37.0, *args[2:])  # now it can: held back
+    assert search.run(*args) is not None and search.run(*args)[0] == 2
+
+
 def test_a_way_round_stands_until_a_shorter_one_opens(monkeypatch) -> None:
     """The way round a wall to the last uncovered cell is confirmed as it stands
     while the map only grows elsewhere; not once a cell on it is blocked, nor
