@@ -316,20 +316,27 @@ def test_a_way_still_shortest_has_none_shorter(seed: int, known: float, found: f
         assert shortest is not None and len(shortest) == len(way)
 
 
-def test_a_candidate_reached_first_is_taken_only_if_affordable_there() -> None:
-    """A candidate two cells away behind a wall is reached before the target on the
-    way, and could be afforded were it as near as it looks, but not by the way
-    round: the target stands, as the search says."""
+def _behind_a_wall(uncovered: list[tuple[int, int]]) -> MapBelief:
+    """A known 22x12 map, charger in the corner, a two-cell wall at (9, 4)-(9, 5)
+    between (10, 5) and (8, 5); every cell covered but ``uncovered``."""
     belief = MapBelief((22, 12), (0, 0))
     wall = {(9, 4), (9, 5)}
     for r in range(22):
         for c in range(12):
             if (r, c) not in wall:
                 belief.mark_free(belief.index((r, c)))
-    start, behind, goal = (10, 5), (8, 5), (10, 0)
     for i in list(belief.uncovered):
-        if belief.cell(i) not in (behind, goal):
+        if belief.cell(i) not in uncovered:
             belief.cover(belief.cell(i), 1)
+    return belief
+
+
+def test_a_candidate_reached_first_is_taken_only_if_affordable_there() -> None:
+    """A candidate two cells away behind a wall is reached before the target on the
+    way, and could be afforded were it as near as it looks, but not by the way
+    round: the target stands, as the search says."""
+    start, behind, goal = (10, 5), (8, 5), (10, 0)
+    belief = _behind_a_wall([behind, goal])
     search = TargetSearch(belief)
     nobody = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
     way = [belief.index((10, c)) for c in range(4, -1, -1)]
@@ -348,16 +355,8 @@ def test_left_to_others_counts_only_if_affordable_by_the_way_there() -> None:
     """The last candidate, behind a wall, is left to an agent beside it: the agent
     would be held back if it could afford it, which it could as the crow flies
     but not by the way round. So the shortcut finds nothing, as the search says."""
-    belief = MapBelief((22, 12), (0, 0))
-    wall = {(9, 4), (9, 5)}
-    for r in range(22):
-        for c in range(12):
-            if (r, c) not in wall:
-                belief.mark_free(belief.index((r, c)))
     start, behind = (10, 5), (8, 5)
-    for i in list(belief.uncovered):
-        if belief.cell(i) != behind:
-            belief.cover(belief.cell(i), 1)
+    belief = _behind_a_wall([behind])
     search = TargetSearch(belief)
     beside = (np.array([7], dtype=np.int64), np.array([5], dtype=np.int64))
     # Battery 36, 1 a move, floor 20: 2 + 13 home as the crow flies, 4 + 13 round.
