@@ -29,6 +29,13 @@ _UNKNOWN = int(CellState.UNKNOWN)
 _DELTA = {d: d.value for d in Direction}
 
 
+def with_unknown_side(known: np.ndarray) -> np.ndarray:
+    """Cells of a grid of ``CellState`` values with an unknown N, S, E or W neighbour
+    (off the grid counts as known): nobody sensed from a covered one of them."""
+    unknown = np.pad(known == CellState.UNKNOWN, 1)
+    return unknown[:-2, 1:-1] | unknown[2:, 1:-1] | unknown[1:-1, :-2] | unknown[1:-1, 2:]
+
+
 class MapBelief:
     def __init__(self, shape: tuple[int, int], charger: Cell) -> None:
         rows, cols = shape

@@ -25,7 +25,7 @@ import numpy as np
 from scipy import ndimage
 
 from planner import btp
-from planner.belief import UNREACHED, MapBelief
+from planner.belief import UNREACHED, MapBelief, with_unknown_side
 from planner.fast_search import HorizonMemo, TargetSearch, Team, nearest_manhattan
 from planner.grid import MOVES, Cell, CellState, Direction, manhattan
 from planner.paths import path_to_charger, path_to_known
@@ -367,9 +367,7 @@ class Coordinator:
         self._load_prior(known)
         # A covered cell was sensed from: an unknown side means that sensing did not
         # reach the log. Such cells are left to cover again, so that someone senses there.
-        unknown = np.pad(known == CellState.UNKNOWN, 1)
-        unsensed = unknown[:-2, 1:-1] | unknown[2:, 1:-1] | unknown[1:-1, :-2] | unknown[1:-1, 2:]
-        for r, c in zip(*np.nonzero(covered & ~unsensed), strict=True):
+        for r, c in zip(*np.nonzero(covered & ~with_unknown_side(known)), strict=True):
             belief.cover((int(r), int(c)), btp.BtpStacks.POOL)
         for cell in btps:
             if belief.inside(cell) and belief.index(cell) in belief.uncovered:

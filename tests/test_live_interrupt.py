@@ -11,8 +11,10 @@ from pathlib import Path
 
 import pytest
 
+from gcs.live.resume import load_resume_point
 from gcs.log_reader import read_log
 from gcs.mission import load_mission
+from planner.belief import with_unknown_side
 
 DEMO = Path(__file__).resolve().parents[1] / "missions" / "demo.yaml"
 
@@ -62,4 +64,8 @@ def test_ctrl_c_sends_everyone_home_and_closes_the_log(tmp_path: Path) -> None:
     charger = load_mission(DEMO).charger
     assert [a.track[-1] for a in result.agents] == [charger] * len(result.agents)
     assert "not home" not in stdout + stderr
+    # The way home, flown in AUTO without sensing, crossed only cells already
+    # covered: every covered cell was sensed from (a resumed mission relies on it).
+    logged = load_resume_point(out / "mission.mcap", load_mission(DEMO))
+    assert not (logged.covered & with_unknown_side(logged.known)).any()
     assert (out / "report.json").exists()

@@ -7,8 +7,9 @@ the others. What an action means for a vehicle:
 * MOVE: fly to the cell centre in GUIDED, wait for the position telemetry to
   show it there, collect range readings taken after arrival, observe.
   When the planner sends the vehicle home (returning to charge, or homing at
-  the end) the whole way home is uploaded as a mission and flown in AUTO, so
-  the vehicle gets home even if the link drops; the ground station still
+  the end) the whole way home, once it runs over covered cells only, is
+  uploaded as a mission and flown in AUTO, so the vehicle gets home even if
+  the link drops; the ground station still
   observes each waypoint and asks the planner for the next cell, and stops
   the vehicle (back to stepping in GUIDED) if the planner does not grant it.
 * CHARGE: park on the charger (copter lands, rover holds, disarm) and follow
@@ -190,7 +191,7 @@ class Agent:
                 and not self._step_home
             ):
                 cells = self._way_home(action.to)
-                if len(cells) >= self.settings.min_auto_cells:
+                if len(cells) >= self.settings.min_auto_cells and self._swept(cells):
                     try:
                         return await self._fly_home(cells)
                     except MissionError as exc:
@@ -344,6 +345,14 @@ class Agent:
             north, east = north + to_n / gap * travel, east + to_e / gap * travel
         size = geo.cell_size_m
         return ((east - centre_e) / size, (north - centre_n) / size)
+
+    def _swept(self, cells: list[Cell]) -> bool:
+        """Every cell already covered. Flown over in AUTO, a cell is observed without
+        sensing; a covered cell must have been sensed from (the planner finds what lies
+        beyond it from there, and a resumed mission rebuilds the map on it), so a way
+        home over cells not yet covered is stepped, sensing each, until it is not."""
+        belief = self.planner.coordinator.belief
+        return all(belief.is_covered(cell) for cell in cells)
 
     def _way_home(self, first: Cell) -> list[Cell]:
         belief = self.planner.coordinator.belief
