@@ -221,6 +221,11 @@ class Coordinator:
     def cell_of(self, agent: int) -> Cell:
         return self.belief.cell(self._agents[agent].index)
 
+    def planned_path(self, agent: int) -> list[Cell]:
+        """The cells the agent is to move through after the move just decided: the rest
+        of its way to its goal (the charger, when returning), as the planner keeps it."""
+        return [self.belief.cell(i) for i in self._agents[agent].path]
+
     def btps(self) -> list[Cell]:
         return [self.belief.cell(i) for i in self.stacks.owner]
 

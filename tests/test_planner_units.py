@@ -397,3 +397,33 @@ def test_far_targets_are_searched_for_again_less_often() -> None:
     # Searches 59, 33, 20, 13, 10 and 8 moves from the end (half the way beyond 8
     # between two), then at every step within 8 until the end is a neighbour.
     assert fewer == 12
+
+
+def test_the_planned_way_home_is_the_way_granted_cell_by_cell() -> None:
+    """A live vehicle flies its way home as one AUTO mission, stopped wherever the
+    planner does not grant the next cell: the mission must be the planner's own way
+    (``planned_path``), here a detour round another agent, not a fresh shortest way
+    from the next cell, which runs back through that agent."""
+    known = np.full((3, 4), int(FREE), dtype=np.int8)
+    agents = [AgentSpec(1, 0.0), AgentSpec(2, 0.0)]
+    c = Coordinator((3, 4), (0, 0), agents, PlannerSettings(), prior=known)
+    for cell in [(0, 0), (0, 1), (0, 2), (0, 3)]:
+        c.observe(1, cell, {}, 100.0)
+    c.observe(2, (0, 0), {}, 100.0)
+    c.observe(2, (0, 1), {}, 100.0)
+    c.observe(2, (0, 2), {}, 100.0)  # agent 2 stands on agent 1's way home and stays
+    c.recall()
+    first = c.decide(1).to
+    assert first == (1, 3)  # round agent 2
+    planned = c.planned_path(1)
+    assert planned[-1] == (0, 0) and (0, 2) not in planned
+    fresh = path_to_charger(c.belief, c.belief.index(first))
+    assert fresh is not None and c.belief.index((0, 2)) in fresh  # why not this one
+    granted = []
+    cell = first
+    while cell != (0, 0):
+        c.observe(1, cell, {}, 100.0)
+        action = c.decide(1)
+        assert action.kind == ActionKind.MOVE and action.to is not None
+        granted.append(cell := action.to)
+    assert granted == planned

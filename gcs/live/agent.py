@@ -355,7 +355,14 @@ class Agent:
         return all(belief.is_covered(cell) for cell in cells)
 
     def _way_home(self, first: Cell) -> list[Cell]:
-        belief = self.planner.coordinator.belief
+        """The planner's own way home from ``first`` (the move just granted): the route
+        flown must be the one it grants cell by cell, or the vehicle is stopped at the
+        first waypoint where the two part (a shortest way home changes as the map grows)."""
+        coordinator = self.planner.coordinator
+        planned = coordinator.planned_path(self.id)
+        if planned and planned[-1] == self.charger:
+            return [first, *planned]
+        belief = coordinator.belief
         rest = path_to_charger(belief, belief.index(first)) or []
         return [first, *(belief.cell(i) for i in rest)]
 
@@ -364,9 +371,13 @@ class Agent:
         waypoint and asking the planner for the next cell; stop and hand back to
         stepping when the planner does not grant it."""
         await self.pilot.underway()
-        first_seq = await self.pilot.start_route(cells, land=True)
+        route = await self.pilot.start_route(cells, land=True)
         self.view.phase = Phase.FLYING_HOME
-        self._tell(f"flies {len(cells)} cells home in AUTO")
+        if route.uploaded:
+            self._tell(f"flies {len(cells)} cells home in AUTO")
+        else:
+            self._tell(f"flies on home in AUTO ({len(cells)} cells, the route on board)")
+        first_seq = route.first_seq
         previous = self.planner.coordinator.cell_of(self.id)
         for k, cell in enumerate(cells):
             seq = first_seq + k

@@ -25,7 +25,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from gcs.live.sensing import SECTOR_ORIENTATIONS
 from planner.grid import Cell
 from vehicles.clock import Clock
-from vehicles.errors import CommandDenied, LinkError, MissionTimeout
+from vehicles.errors import CommandDenied, CommandError, LinkError, MissionTimeout
 from vehicles.geo import GeoFrame
 from vehicles.link import VehicleLink
 from vehicles.mission_items import MissionItem, same_items
@@ -34,6 +34,16 @@ from vehicles.telemetry import ObstacleDistances, Position, RangeReading, Topic
 
 #: A copter this high above home has left the ground (metres).
 CLIMBING_M = 0.1
+
+
+@dataclass(frozen=True)
+class Route:
+    """A flight home under way in AUTO."""
+
+    #: Mission seq of the first cell of the path.
+    first_seq: int
+    #: Uploaded now (False: the rest of the one on board, resumed).
+    uploaded: bool
 
 
 @dataclass(frozen=True)
@@ -86,6 +96,9 @@ class Pilot:
         self.speed_m_s = speed_m_s
         self.settings = settings or PilotSettings()
         self.flies = kind == VehicleKind.COPTER
+        #: The flight home on board, as uploaded: its cells, whether it lands, and the
+        #: mission seq of its first cell.
+        self._route: tuple[tuple[Cell, ...], bool, int] | None = None
 
     # -- time and state --------------------------------------------------------------
 
@@ -316,13 +329,28 @@ class Pilot:
             )
         return items
 
-    async def start_route(self, cells: Sequence[Cell], land: bool) -> int:
-        """Upload the path and fly it in AUTO; returns the mission seq of ``cells[0]``.
+    async def start_route(self, cells: Sequence[Cell], land: bool) -> Route:
+        """Fly the path in AUTO: uploaded, or, when it is the rest of the flight home
+        already on board (a vehicle stopped on the way and let go on), resumed there
+        with DO_SET_MISSION_CURRENT and AUTO instead of uploading it again (over a
+        slow radio an upload keeps the vehicle hovering for seconds). AUTO resumes at
+        the current item as MAVSDK's start after set-current expects (ArduPilot with
+        MIS_RESTART 0, its default).
 
         The upload counts only when the vehicle accepted it (final MISSION_ACK), and with
         ``verify_by_download`` only when it reads back the same."""
+        offset = self._rest_of_route(cells, land)
+        if offset is not None:
+            try:
+                await self.link.set_current_item(offset)
+            except CommandError:
+                pass  # not on board after all (a reboot, another ground station): upload
+            else:
+                await self.set_mode(FlightMode.AUTO)
+                return Route(offset, uploaded=False)
         items = self.route_items(cells, land)
         budget_s = self.settings.upload_budget_s
+        self._route = None  # a failed upload may leave anything on board
         try:
             async with asyncio.timeout(self.real_s(budget_s)):
                 await self.link.upload_mission(items)
@@ -334,8 +362,20 @@ class Pilot:
             back = await self.link.download_mission()
             if not same_items(back[1:], items[1:]):
                 raise LinkError("the flight home read back differs from the one sent")
+        first_seq = len(items) - len(cells) - (1 if land and self.flies else 0)
+        self._route = (tuple(cells), land, first_seq)
         await self.set_mode(FlightMode.AUTO)
-        return len(items) - len(cells) - (1 if land and self.flies else 0)
+        return Route(first_seq, uploaded=True)
+
+    def _rest_of_route(self, cells: Sequence[Cell], land: bool) -> int | None:
+        """The mission seq of ``cells[0]`` when ``cells`` end the flight home on board."""
+        if self._route is None or not cells:
+            return None
+        on_board, lands, first_seq = self._route
+        skipped = len(on_board) - len(cells)
+        if lands != land or skipped < 0 or on_board[skipped:] != tuple(cells):
+            return None
+        return first_seq + skipped
 
     def mission_seq(self) -> int | None:
         return self.link.telemetry.mission.current_seq
@@ -345,6 +385,7 @@ class Pilot:
     async def park(self) -> None:
         """On the charger: a copter lands, a rover holds; then disarm (only a disarmed
         vehicle charges)."""
+        self._route = None  # the flight home is over: the next one is uploaded afresh
         wait_s = self.settings.manoeuvre_timeout_s
         if self.flies:
             pos = self.position
@@ -366,6 +407,7 @@ class Pilot:
     async def hold(self) -> None:
         """Stop where it is: HOLD for a rover, a landing for a copter (it cannot hover for
         ever). Used when a vehicle cannot be sent to charge."""
+        self._route = None
         if self.flies:
             await self.link.land()
         else:
