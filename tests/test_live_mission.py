@@ -169,7 +169,7 @@ async def test_complete_coverage_everyone_parked(
         planned = planned_path_m(mission, tmp_path)
         assert abs(got["total_path_m"] - planned) <= 0.15 * planned, (got["total_path_m"], planned)
     # Several vehicles deciding at their own pace interleave differently from the
-    # lockstep plan: on maps this small the live/plan ratio ranged from 0.93 to 1.52
+    # lockstep plan: on maps this small the live/plan ratio ranged from 0.88 to 1.36
     # over repeated runs, too wide to be a test. The fleet path check is on the demo
     # map (test_demo_fleet_is_no_longer_than_the_plan).
     assert (out / "coverage.png").exists()
@@ -326,10 +326,10 @@ DEMO = Path(__file__).resolve().parents[1] / "missions" / "demo.yaml"
 @pytest.mark.parametrize("agents", [3, 5])
 def test_demo_fleet_is_no_longer_than_the_plan(tmp_path: Path, agents: int) -> None:
     """On the demo's scenario-like map (593 cells, charging trips, rovers and copters),
-    a fleet deciding at its own pace flies no more than 30 % beyond the lockstep plan.
+    a fleet deciding at its own pace flies no more than 15 % beyond the lockstep plan.
     It is often shorter: charging takes time live, so fewer vehicles get in each
-    other's way. Measured live/plan: 0.64 to 1.19; the issue's 15 % is not held
-    every time, because the greedy planner depends on the order of decisions."""
+    other's way. Measured live/plan over 8 runs each: 0.97 to 1.02 with 3 vehicles,
+    0.84 to 1.01 with 5 (the greedy planner depends on the order of decisions)."""
     planned_out = tmp_path / "plan"
     assert (
         main(["plan", str(DEMO), "--agents", str(agents), "--out", str(planned_out), "--quiet"])
@@ -356,7 +356,7 @@ def test_demo_fleet_is_no_longer_than_the_plan(tmp_path: Path, agents: int) -> N
     got = report(out)
     assert code == 0, got
     assert got["complete"] and got["lost_agents"] == 0
-    assert got["total_path_m"] <= 1.30 * planned, (got["total_path_m"], planned)
+    assert got["total_path_m"] <= 1.15 * planned, (got["total_path_m"], planned)
 
 
 async def test_waits_out_an_ardupilot_like_start_up(tmp_path: Path) -> None:

@@ -333,9 +333,9 @@ class Pilot:
         """Fly the path in AUTO: uploaded, or, when it is the rest of the flight home
         already on board (a vehicle stopped on the way and let go on), resumed there
         with DO_SET_MISSION_CURRENT and AUTO instead of uploading it again (over a
-        slow radio an upload keeps the vehicle hovering for seconds). AUTO resumes at
-        the current item as MAVSDK's start after set-current expects (ArduPilot with
-        MIS_RESTART 0, its default).
+        slow radio an upload keeps the vehicle hovering for seconds). Entering AUTO,
+        the autopilot goes on from the current item (ArduPilot with MIS_RESTART 0,
+        its default).
 
         The upload counts only when the vehicle accepted it (final MISSION_ACK), and with
         ``verify_by_download`` only when it reads back the same."""
