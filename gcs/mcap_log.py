@@ -28,7 +28,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
 from mcap.writer import CompressionType, Writer
@@ -36,6 +36,9 @@ from mcap.writer import CompressionType, Writer
 from gcs.result import AgentTrace, BtpRecord, RunResult
 from planner.grid import Cell, CellState, Direction
 from vehicles.geo import GeoFrame
+
+if TYPE_CHECKING:
+    from gcs.foxglove_live import LiveView
 
 PROFILE = ""
 MAP_FRAME = "map"
@@ -414,7 +417,7 @@ class McapMissionLog:
 
     def __init__(
         self,
-        path: Path | str,
+        path: Path | str | None,
         *,
         mission_name: str,
         shape: tuple[int, int],
@@ -426,11 +429,20 @@ class McapMissionLog:
         flush_s: float = 1.0,
         scene_period_s: float = 5.0,
         scene_fraction: float = 0.05,
+        live: LiveView | None = None,
     ) -> None:
-        self.path = Path(path)
-        self._file: IO[bytes] = open(self.path, "wb")  # noqa: SIM115 - closed in close()
-        self._writer = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
-        self._writer.start(profile=PROFILE, library="staying-alive-gcs")
+        """``path`` None writes no file: the messages go to ``live`` only (a Foxglove
+        live view, which gets every message but the raw MAVLink ones)."""
+        self.path = None if path is None else Path(path)
+        self._file: IO[bytes] | None = None
+        self._writer: Writer | None = None
+        if self.path is not None:
+            self._file = open(self.path, "wb")  # noqa: SIM115 - closed in close()
+            self._writer = Writer(
+                self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD
+            )
+            self._writer.start(profile=PROFILE, library="staying-alive-gcs")
+        self._live = live
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._vehicles: dict[int, _Vehicle] = {}
@@ -452,7 +464,9 @@ class McapMissionLog:
 
     # -------------------------------------------------------------- plumbing
 
-    def _channel(self, topic: str, schema: str | None, encoding: str = "json") -> int:
+    def _channel(
+        self, writer: Writer, topic: str, schema: str | None, encoding: str = "json"
+    ) -> int:
         channel = self._channels.get(topic)
         if channel is not None:
             return channel
@@ -461,21 +475,26 @@ class McapMissionLog:
             schema_id = self._schemas.get(schema, 0)
             if not schema_id:
                 data = json.dumps(SCHEMAS[schema]).encode()
-                schema_id = self._writer.register_schema(schema, "jsonschema", data)
+                schema_id = writer.register_schema(schema, "jsonschema", data)
                 self._schemas[schema] = schema_id
         metadata = {"format": "one MAVLink v1/v2 frame per message"} if schema is None else {}
-        channel = self._writer.register_channel(topic, encoding, schema_id, metadata)
+        channel = writer.register_channel(topic, encoding, schema_id, metadata)
         self._channels[topic] = channel
         return channel
 
     def _write(self, topic: str, schema: str | None, t_s: float, data: bytes) -> None:
         if self._closed:
             return
-        channel = self._channel(topic, schema, "json" if schema else RAW_ENCODING)
+        self._last_t = max(self._last_t, t_s)
+        if self._live is not None and schema is not None:
+            self._live.publish(topic, schema, data)
+        writer = self._writer
+        if writer is None:
+            return
+        channel = self._channel(writer, topic, schema, "json" if schema else RAW_ENCODING)
         ns = max(0, round(t_s * 1e9))
         self._sequence += 1
-        self._writer.add_message(channel, ns, data, ns, self._sequence)
-        self._last_t = max(self._last_t, t_s)
+        writer.add_message(channel, ns, data, ns, self._sequence)
         now = time.monotonic()
         if now - self._last_flush >= self._flush_s:
             self.flush()
@@ -485,7 +504,7 @@ class McapMissionLog:
 
     def flush(self) -> None:
         """Close the current chunk and hand it to the OS: a crash after this loses nothing."""
-        if self._closed:
+        if self._closed or self._writer is None:
             return
         self._writer.flush()
         self._last_flush = time.monotonic()
@@ -706,11 +725,13 @@ class McapMissionLog:
             return
         try:
             self._emit_pending(self._last_t)
-            self._writer.finish()
-            self._file.flush()
+            if self._writer is not None and self._file is not None:
+                self._writer.finish()
+                self._file.flush()
         finally:
             self._closed = True
-            self._file.close()
+            if self._file is not None:
+                self._file.close()
 
     def __enter__(self) -> McapMissionLog:
         return self

@@ -12,6 +12,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.figures import write_figures
+from gcs.foxglove_live import LiveView
 from gcs.mcap_log import McapMissionLog
 from gcs.mission import Mission, MissionError, load_mission
 from gcs.mission_log import MissionLog
@@ -128,18 +129,21 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK if result.complete else EXIT_FAILED
 
 
-def open_log(mission: Mission, out: Path) -> McapMissionLog:
-    """The MCAP mission log in ``out`` (created), ready for ``simulate``."""
+def open_log(mission: Mission, out: Path | None, live: LiveView | None = None) -> McapMissionLog:
+    """The MCAP mission log in ``out`` (created; None: no file), ready for ``simulate``,
+    also served to ``live``."""
     try:
-        out.mkdir(parents=True, exist_ok=True)
+        if out is not None:
+            out.mkdir(parents=True, exist_ok=True)
         return McapMissionLog(
-            out / LOG_NAME,
+            None if out is None else out / LOG_NAME,
             mission_name=mission.name,
             shape=mission.map.shape,
             cell_size_m=mission.cell_size_m,
             charger=mission.charger,
             geo=mission.geo,
             reserve_pct=mission.planner.reserve_pct,
+            live=live,
         )
     except OSError as exc:
         raise UsageError(f"--out: cannot write to {out}: {exc.strerror}") from exc

@@ -21,10 +21,13 @@ from rich.console import Console
 
 from gcs.commands.plan import LOG_NAME, load, open_log, write_outputs
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
+from gcs.foxglove_live import DEFAULT_PORT, LiveView, LiveViewError
+from gcs.foxglove_live import HOST as LIVE_HOST
 from gcs.live.agent import AgentSettings
 from gcs.live.display import LiveDisplay
 from gcs.live.mission import LiveOptions, MissionRefused, SimFaults, run_live
 from gcs.live.resume import ResumeError, load_resume_point
+from gcs.mcap_log import SCHEMAS
 from gcs.mission import Mission
 from gcs.mission_log import MissionLog, NullLog
 from gcs.preflight import check_range
@@ -67,6 +70,16 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--out", type=Path, help="write report.json, PNG figures and mission.mcap to this folder"
     )
     p.add_argument("--quiet", action="store_true", help="no live display; print only errors")
+    p.add_argument(
+        "--live",
+        type=int,
+        nargs="?",
+        const=DEFAULT_PORT,
+        metavar="PORT",
+        help="serve the mission as it happens to Foxglove (open connection: Foxglove "
+        f"WebSocket, ws://{LIVE_HOST}:PORT; default port {DEFAULT_PORT}): the map, vehicles, "
+        "tracks, backtracking points, batteries and events of the log, on loopback",
+    )
     p.add_argument(
         "--allow-remote",
         action="store_true",
@@ -250,6 +263,15 @@ def keys_from(args: argparse.Namespace, mission: Mission) -> KeyFile | None:
     return keys
 
 
+def open_live(port: int) -> LiveView:
+    if not 0 <= port <= 65535:
+        raise UsageError(f"--live: port {port} is not in 0-65535")
+    try:
+        return LiveView(port, SCHEMAS)
+    except LiveViewError as exc:
+        raise UsageError(f"--live: {exc}") from exc
+
+
 def run(args: argparse.Namespace) -> int:
     mission = load(args)
     options = options_from(args, mission)
@@ -261,7 +283,11 @@ def run(args: argparse.Namespace) -> int:
     reach = check_range(mission)
     if reach.out_of_range:
         errors.print(f"[yellow]warning:[/] {reach.message()}")
-    mission_log: MissionLog = open_log(mission, args.out) if args.out else NullLog()
+    live = open_live(args.live) if args.live is not None else None
+    mission_log: MissionLog = open_log(mission, args.out, live) if args.out or live else NullLog()
+    if live is not None:
+        # Also with --quiet: the operator asked for it, and needs the address.
+        print(f"gcs run: Foxglove live view at {live.url}", file=sys.stderr, flush=True)
     display = LiveDisplay(quiet=args.quiet, console=console)
     try:
         result, interrupted = asyncio.run(_main(mission, options, mission_log, display))
@@ -270,6 +296,8 @@ def run(args: argparse.Namespace) -> int:
         return exc.exit_code
     finally:
         mission_log.close()
+        if live is not None:
+            live.close()
     console.print()
     print_summary(result, console)
     if args.out:
