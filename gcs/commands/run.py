@@ -284,7 +284,14 @@ def run(args: argparse.Namespace) -> int:
     if reach.out_of_range:
         errors.print(f"[yellow]warning:[/] {reach.message()}")
     live = open_live(args.live) if args.live is not None else None
-    mission_log: MissionLog = open_log(mission, args.out, live) if args.out or live else NullLog()
+    try:
+        mission_log: MissionLog = (
+            open_log(mission, args.out, live) if args.out or live else NullLog()
+        )
+    except UsageError:
+        if live is not None:
+            live.close()
+        raise
     if live is not None:
         # Also with --quiet: the operator asked for it, and needs the address.
         print(f"gcs run: Foxglove live view at {live.url}", file=sys.stderr, flush=True)
