@@ -19,7 +19,7 @@ from mcap.reader import make_reader
 from websockets.asyncio.client import ClientConnection, connect
 
 from gcs.foxglove_live import LiveView
-from gcs.mcap_log import SCHEMAS, McapMissionLog
+from gcs.mcap_log import SCHEMAS
 from planner.grid import CellState
 from tests.test_live_mission import SMALL, write_mission
 from tests.test_mcap_log import _mission, _open_log
@@ -98,31 +98,11 @@ async def test_the_logs_topics_are_served_live_with_their_schemas(tmp_path: Path
     assert {"/map", "/events", "/mavlink/1/in"} <= topics  # the file has it all
 
 
-def test_without_a_file_the_log_is_only_served(tmp_path: Path) -> None:
-    mission = _mission()
-    view = LiveView(0, SCHEMAS)
-    try:
-        log = McapMissionLog(
-            None,
-            mission_name=mission.name,
-            shape=mission.map.shape,
-            cell_size_m=mission.cell_size_m,
-            charger=mission.charger,
-            geo=mission.geo,
-            reserve_pct=20.0,
-            live=view,
-        )
-        log.event(1.0, "nothing written")
-        log.close()
-    finally:
-        view.close()
-    assert list(tmp_path.iterdir()) == []
-
-
 async def test_gcs_run_live_is_watched_while_it_flies(tmp_path: Path) -> None:
-    """The real CLI in a process of its own with ``--sim --live 0``: it says where it
-    serves; a client connected during the mission sees the map and the vehicle
-    advertised, and the vehicle's fixes arrive."""
+    """The real CLI in a process of its own with ``--sim --live 0`` and no ``--out`` (the
+    log then writes no file and only serves): it says where it serves; a client
+    connected during the mission sees the map and the vehicle advertised, and the
+    vehicle's fixes arrive."""
     mission = write_mission(tmp_path, SMALL, [{"type": "rover"}])
     argv = ["run", str(mission), "--sim", "--live", "0", "--quiet", "--speedup", "5"]
     process = await asyncio.create_subprocess_exec(
@@ -130,8 +110,6 @@ async def test_gcs_run_live_is_watched_while_it_flies(tmp_path: Path) -> None:
         "-c",
         "import sys; from gcs.cli import main; sys.exit(main(sys.argv[1:]))",
         *argv,
-        "--out",
-        str(tmp_path / "out"),
         stdout=asyncio.subprocess.DEVNULL,
         stderr=asyncio.subprocess.PIPE,
     )
