@@ -320,16 +320,19 @@ def test_listening_beyond_loopback_needs_to_be_asked_for(
 
 
 DEMO = Path(__file__).resolve().parents[1] / "missions" / "demo.yaml"
+#: Mission seconds the demo may take, divided among the vehicles (one alone took 1240 s).
+DEMO_MISSION_LIMIT_S = 3000
 
 
 @pytest.mark.timeout(240)
-@pytest.mark.parametrize("agents", [3, 5])
+@pytest.mark.parametrize("agents", [1, 3, 5])
 def test_demo_fleet_is_no_longer_than_the_plan(tmp_path: Path, agents: int) -> None:
     """On the demo's scenario-like map (593 cells, charging trips, rovers and copters),
     a fleet deciding at its own pace flies no more than 15 % beyond the lockstep plan.
     It is often shorter: charging takes time live, so fewer vehicles get in each
-    other's way. Measured live/plan over 8 runs each: 0.97 to 1.02 with 3 vehicles,
-    0.84 to 1.01 with 5 (the greedy planner depends on the order of decisions)."""
+    other's way. Measured live/plan: 1.11 with 1 vehicle (3 runs: one more charging
+    trip, from the margin on its online energy estimate), 0.97 to 1.02 with 3 and 0.84
+    to 1.01 with 5 (8 runs each: the greedy planner depends on the order of decisions)."""
     planned_out = tmp_path / "plan"
     assert (
         main(["plan", str(DEMO), "--agents", str(agents), "--out", str(planned_out), "--quiet"])
@@ -348,7 +351,7 @@ def test_demo_fleet_is_no_longer_than_the_plan(tmp_path: Path, agents: int) -> N
             "30",
             "--quiet",
             "--time-limit",
-            TIME_LIMIT_S,
+            str(DEMO_MISSION_LIMIT_S // agents),
             "--out",
             str(out),
         ]
