@@ -822,9 +822,9 @@ class TargetSearch:
             pool = list(pool)
             mask[pool] = 1
             listed = np.array(pool, dtype=np.int64)
-        saved = [(i, mask[i]) for i in excluded]
-        for i, _ in saved:
-            mask[i] = 0
+        claimed = np.array(excluded, dtype=np.int64)
+        saved = mask[claimed]
+        mask[claimed] = 0
         # The shortcuts read the uncovered cells' mask (``self.candidate``) with
         # the claimed cells masked out, as the search does.
         energy = (battery, cost, floor, best_cost, budget)
@@ -868,8 +868,7 @@ class TargetSearch:
                 self.queue,
             )
         finally:
-            for i, value in saved:
-                mask[i] = value
+            mask[claimed] = saved
             if pool is not None:
                 mask[pool] = 0
         if kept >= 0 and memo is not None:
