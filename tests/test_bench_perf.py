@@ -6,8 +6,10 @@ import json
 from pathlib import Path
 
 import pytest
+from rich.console import Console
 
-from gcs.bench_perf import live_map, write_live_mission
+from gcs import bench_perf
+from gcs.bench_perf import goals, goals_table, live_map, write_live_mission
 from gcs.cli import main
 from gcs.mission import load_mission
 
@@ -34,13 +36,21 @@ def test_planner_cases_print_and_write_their_figures(tmp_path: Path, capsys) -> 
     assert "offline planner" in capsys.readouterr().out
 
 
-def test_the_planner_option_reaches_the_cases(tmp_path: Path, capsys) -> None:
+def test_the_planner_option_reaches_the_cases(tmp_path: Path, capsys, monkeypatch) -> None:
+    """And the goal of that size of case is judged (the goal made small for the test)."""
+    monkeypatch.setattr(bench_perf, "GOAL_SIDE", 24)
+    monkeypatch.setattr(bench_perf, "GOAL_AGENTS", 3)
     out = tmp_path / "perf.json"
     args = ["bench", "perf", "--sizes", "24", "--agents", "3", "--kinds", "open", "--skip-live"]
     assert main([*args, "--far-transit-recheck", "4", "--json", str(out)]) == 0
-    (row,) = json.loads(out.read_text())["planner"]
+    figures = json.loads(out.read_text())
+    (row,) = figures["planner"]
     assert row["far_transit_recheck"] == 4 and row["coverage_pct"] == 100.0
-    assert "far_transit_recheck 4" in capsys.readouterr().out
+    (goal,) = figures["goals"]
+    assert "open 24x24, 3 agents, far_transit_recheck 4" in goal["what"]
+    assert goal["measured"].startswith("100.0 % covered, 0 lost")
+    printed = capsys.readouterr().out
+    assert "far_transit_recheck 4" in printed and "scaling goals" in printed
 
 
 def test_a_case_over_its_limit_is_reported_not_waited_for(tmp_path: Path, capsys) -> None:
@@ -75,3 +85,39 @@ def test_the_live_mission_gives_every_vehicle_work_on_loopback(tmp_path: Path) -
     assert all(v.connection.startswith("udpin:127.0.0.1:") for v in mission.fleet)
     assert len({v.connection for v in mission.fleet}) == 16
     assert live_map(16).free_count >= 25 * 16
+
+
+def _planner_row(kind: str, size: int, agents: int, **figures: object) -> dict[str, object]:
+    measured = {"coverage_pct": 100.0, "lost": 0, "wall_s": 46.5, "peak_mb": 497}
+    return {"kind": kind, "size": size, "agents": agents, **measured, **figures}
+
+
+def test_the_goals_are_judged_on_the_cases_that_measure_them() -> None:
+    planner = [
+        _planner_row("open", 300, 50, wall_s=7.1),  # not a goal's case
+        _planner_row("open", 1000, 50, far_transit_recheck=64),
+        _planner_row("open", 1000, 50, wall_s=75.6),
+        _planner_row("rooms", 1000, 50, peak_mb=2100),
+        _planner_row("rooms", 1000, 50, coverage_pct=99.9),
+        _planner_row("rooms", 1000, 50, lost=1),
+        {"kind": "rooms", "size": 1000, "agents": 50, "error": "over 600 s", "coverage_pct": 44.0},
+    ]
+    live = [
+        {"vehicles": 16, "coverage_pct": 100.0, "lost": 0, "latency_ms_p99": 90.0},
+        {"vehicles": 64, "coverage_pct": 100.0, "lost": 0, "latency_ms_p99": 1.9},
+        {"vehicles": 64, "coverage_pct": 100.0, "lost": 0, "latency_ms_p99": 20.0},
+        {"vehicles": 64, "error": "gcs run exited 1 without a report"},
+    ]
+    found = goals(planner, live)
+    assert [g.met for g in found] == [True, False, False, False, False, False, True, False, False]
+    assert "far_transit_recheck 64" in found[0].what and "46.5 s, 497 MB" in found[0].measured
+    assert found[5].measured == "over 600 s"
+    assert "p99 1.90 ms" in found[6].measured
+    console = Console(width=200, record=True)
+    console.print(goals_table(found))
+    text = console.export_text()
+    assert text.count(" yes ") == 2 and text.count(" NO ") == 7
+
+
+def test_no_goal_is_judged_without_its_cases() -> None:
+    assert goals([_planner_row("open", 300, 50)], [{"vehicles": 16}]) == []
