@@ -115,6 +115,11 @@ _PRIORITY = {AgentMode.RETURN: 3, AgentMode.HOMING: 2, AgentMode.TRANSIT: 1}
 
 
 _WORKING = frozenset({AgentMode.EXPLORE, AgentMode.TRANSIT})
+_HOMEWARD = frozenset({AgentMode.RETURN, AgentMode.HOMING})
+#: An agent going home held up this many times ``patience`` is given the cell it
+#: waits for (``_kept_waiting_for``): late enough to leave ordinary crossings to
+#: the order of decisions, as before, and to settle a jam.
+_GIVEN_WAY_AFTER = 8
 
 
 @dataclass
@@ -723,6 +728,8 @@ class Coordinator:
         nxt = a.path[0]
         blocker = self._occupant.get(nxt)
         if blocker is None or blocker == a.id:
+            if a.mode not in _HOMEWARD and self._kept_waiting_for(nxt):
+                return WAIT
             a.path.pop(0)
             return self._move(a, nxt)
         detour = self._detour(a, goal)
@@ -733,6 +740,26 @@ class Coordinator:
         if a.waited >= self.settings.patience:
             self._ask_to_make_way(a, self._agents[blocker])
         return WAIT
+
+    def _kept_waiting_for(self, index: int) -> bool:
+        """Is an agent going home held up beside ``index``, waiting to step into it?
+
+        Then the cell is left to it: where a queue going out meets one coming
+        home (the mouth of a passage at the charger), the agents going out
+        would otherwise take every cell the one going home waits for, one after
+        another, for ever.
+        """
+        for s in self.belief.steps:
+            c = self._agents.get(self._occupant.get(index + s, -1))
+            if (
+                c is not None
+                and c.mode in _HOMEWARD
+                and c.waited >= _GIVEN_WAY_AFTER * self.settings.patience
+                and c.path
+                and c.path[0] == index
+            ):
+                return True
+        return False
 
     def _detour(self, a: _Agent, goal: int) -> list[int] | None:
         """A path around the agents in the way, if it is not much longer and affordable.
@@ -788,6 +815,13 @@ class Coordinator:
             if best is None or key > best[0]:
                 best = (key, v)
         if best is None:
+            if a.mode in _HOMEWARD and b.mode not in _HOMEWARD:
+                # Boxed in on the way of an agent going home: a queue meets it head
+                # on in a narrow passage, and stepping aside one by one only lets
+                # the queue close up again. The queue turns and goes home too:
+                # everyone going home walks towards the charger, which has room
+                # for all, so the passage drains.
+                return self._go_charge(b)
             # Boxed in (a queue in a corridor): pass the request on to the agents
             # around, so that the queue backs off from its free end.
             for s in self.belief.steps:
