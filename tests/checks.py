@@ -18,6 +18,7 @@ from gcs.mission import (
     VehicleType,
     default_connection,
 )
+from gcs.preflight import charger_distances
 from gcs.result import RunResult
 from planner.coordinator import EventKind, PlannerEvent
 from planner.grid import Cell, manhattan
@@ -116,3 +117,10 @@ def make_mission(
             charging_slots=charging_slots,
         ),
     )
+
+
+def energy_for_round_trips(grid: GridMap, trips: float, reserve_pct: float = 20.0) -> float:
+    """An energy per metre with which the usable battery (above the reserve) makes
+    ``trips`` round trips to the farthest cell (1.0: just one)."""
+    far = int(charger_distances(make_mission(grid, 1)).max())
+    return (100.0 - reserve_pct) / (2 * far * trips) if far else 1.0

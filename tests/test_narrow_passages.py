@@ -8,13 +8,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from gcs.preflight import charger_distances
 from gcs.simulate import SimOptions, simulate
 from planner.coordinator import PlannerEvent
 from sitl_mock.gridmap import GridMap
 from sitl_mock.mapgen import entrance
 from sitl_mock.maps import make_map
-from tests.checks import check_run, make_mission
+from tests.checks import check_run, energy_for_round_trips, make_mission
 
 pytestmark = pytest.mark.timeout(300)
 
@@ -35,8 +34,7 @@ def room_beyond_passage(room_h: int, room_w: int, length: int, width: int) -> Gr
 def run_through(grid: GridMap, agents: int, trips: float, limit: int) -> None:
     """``trips``: how many round trips to the farthest cell the usable battery
     makes (1.0: just one, so the fleet keeps coming home)."""
-    far = int(charger_distances(make_mission(grid, 1)).max())
-    mission = make_mission(grid, agents, energy_per_m_pct=80.0 / (2 * far * trips))
+    mission = make_mission(grid, agents, energy_per_m_pct=energy_for_round_trips(grid, trips))
     events: list[tuple[int, PlannerEvent]] = []
     result = simulate(mission, SimOptions(max_iterations=limit), events=events)
     check_run(result, grid, events)

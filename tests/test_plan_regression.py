@@ -16,10 +16,9 @@ from pathlib import Path
 import pytest
 
 from gcs.mission import load_mission
-from gcs.preflight import charger_distances
 from gcs.simulate import SimOptions, simulate
 from sitl_mock import mapgen
-from tests.checks import make_mission
+from tests.checks import energy_for_round_trips, make_mission
 
 RECORDED = Path(__file__).parent / "data" / "plan_regression.json"
 MISSIONS = Path(__file__).parents[1] / "missions"
@@ -45,9 +44,8 @@ def mission_for(source: str, agents: int):
         return load_mission(MISSIONS / source).with_agents(agents)
     kind, size, seed = source.split(":")
     grid = GENERATORS[kind](int(size), int(size), int(seed))
-    far = int(charger_distances(make_mission(grid, 1)).max())
     # A round trip to the farthest cell costs half of the usable battery.
-    return make_mission(grid, agents, energy_per_m_pct=80.0 / (4 * far))
+    return make_mission(grid, agents, energy_per_m_pct=energy_for_round_trips(grid, 2.0))
 
 
 def figures(name: str) -> dict[str, object]:

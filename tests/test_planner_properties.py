@@ -14,7 +14,7 @@ from planner.grid import NEIGHBOURS
 from planner.settings import BmRule, PathPlannerKind, TargetPolicy
 from sitl_mock import mapgen
 from sitl_mock.gridmap import GridMap
-from tests.checks import check_run, make_mission
+from tests.checks import check_run, energy_for_round_trips, make_mission
 
 KINDS = {
     "bars": lambda h, w, seed: mapgen.bars(h, w, count=max(1, h * w // 70), seed=seed),
@@ -50,11 +50,7 @@ def test_complete_and_safe_without_battery_limit(grid: GridMap, agents: int) -> 
 def _energy_for(grid: GridMap, headroom: float) -> float:
     """An energy per metre that leaves ``headroom`` of the usable battery beyond
     the round trip to the farthest cell (so every cell is in range)."""
-    from gcs.preflight import charger_distances
-    from tests.checks import make_mission as mk
-
-    far = int(charger_distances(mk(grid, 1)).max())
-    return 80.0 / (2 * far * (1 + headroom)) if far else 1.0
+    return energy_for_round_trips(grid, 1 + headroom)
 
 
 @PROPERTY
