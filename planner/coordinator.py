@@ -17,7 +17,7 @@ with room for the whole fleet: agents standing on it occupy nothing.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from enum import IntEnum, StrEnum
 
@@ -749,17 +749,22 @@ class Coordinator:
         would otherwise take every cell the one going home waits for, one after
         another, for ever.
         """
-        for s in self.belief.steps:
-            c = self._agents.get(self._occupant.get(index + s, -1))
+        for c in self._agents_beside(index):
             if (
-                c is not None
-                and c.mode in _HOMEWARD
+                c.mode in _HOMEWARD
                 and c.waited >= _GIVEN_WAY_AFTER * self.settings.patience
                 and c.path
                 and c.path[0] == index
             ):
                 return True
         return False
+
+    def _agents_beside(self, index: int) -> Iterator[_Agent]:
+        """The agents in the cells next to ``index`` (N, S, E, W)."""
+        for s in self.belief.steps:
+            c = self._agents.get(self._occupant.get(index + s, -1))
+            if c is not None:
+                yield c
 
     def _detour(self, a: _Agent, goal: int) -> list[int] | None:
         """A path around the agents in the way, if it is not much longer and affordable.
@@ -824,9 +829,8 @@ class Coordinator:
                 return self._go_charge(b)
             # Boxed in (a queue in a corridor): pass the request on to the agents
             # around, so that the queue backs off from its free end.
-            for s in self.belief.steps:
-                c = self._agents.get(self._occupant.get(b.index + s, -1))
-                if c is not None and c is not a and c.make_way_for is None:
+            for c in self._agents_beside(b.index):
+                if c is not a and c.make_way_for is None:
                     c.make_way_for, c.pushed = b.id, True
             return None
         b.path.clear()
