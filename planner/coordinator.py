@@ -807,25 +807,30 @@ class Coordinator:
             return None
         ahead = set(a.path)
         best: tuple[tuple[bool, int], int] | None = None
+        too_far = False  # a cell to step aside to, but not one the battery allows
         for s in self.belief.steps:
             v = b.index + s
             if (
                 self.belief.state[v] != _FREE
                 or (v == a.index and v != self.belief.charger_index)  # the depot has room
                 or v in self._occupant
-                or not self._can_afford(b, 1, v)
             ):
+                continue
+            if not self._can_afford(b, 1, v):
+                too_far = True
                 continue
             key = (v not in ahead, manhattan(self.belief.cell(v), self.belief.cell(a.index)))
             if best is None or key > best[0]:
                 best = (key, v)
         if best is None:
-            if a.mode in _HOMEWARD and b.mode not in _HOMEWARD:
+            if b.mode not in _HOMEWARD and (too_far or a.mode in _HOMEWARD):
                 # Boxed in on the way of an agent going home: a queue meets it head
                 # on in a narrow passage, and stepping aside one by one only lets
                 # the queue close up again. The queue turns and goes home too:
                 # everyone going home walks towards the charger, which has room
-                # for all, so the passage drains.
+                # for all, so the passage drains. So too when the only cell aside
+                # is farther than the battery allows: it soon must go home anyway,
+                # and those between it and the charger are then on its way home.
                 return self._go_charge(b)
             # Boxed in (a queue in a corridor): pass the request on to the agents
             # around, so that the queue backs off from its free end.
