@@ -805,6 +805,25 @@ class Coordinator:
         pushed, b.pushed = b.pushed, False
         if not pushed and (not a.path or a.path[0] != b.index):
             return None
+        if b.mode in _HOMEWARD and b.letting_pass is not None:
+            # Asked again while aside: a step on home frees the cell as well. Else
+            # it may be asked back by the next agent, and pace between two cells
+            # for ever (a queue at the charger's door).
+            on = self._free_step_home(b)
+            if on is not None:
+                b.letting_pass = None
+                b.path.clear()
+                return self._move(b, on)
+        if (
+            a.mode in _HOMEWARD
+            and b.mode not in _HOMEWARD
+            and a.waited >= _GIVEN_WAY_AFTER * self.settings.patience
+        ):
+            # Stepping aside has long not let it through: in a passage two cells
+            # wide the cell aside is the other lane of the queue coming home, and
+            # the two lanes take turns at asking, so that the agent paces between
+            # them for ever. It goes home with the queue instead (below).
+            return self._go_charge(b)
         ahead = set(a.path)
         best: tuple[tuple[bool, int], int] | None = None
         too_far = False  # a cell to step aside to, but not one the battery allows
@@ -841,6 +860,16 @@ class Coordinator:
         b.path.clear()
         b.letting_pass = (a.id, b.index, 4 * self.settings.patience)
         return self._move(b, best[1])
+
+    def _free_step_home(self, a: _Agent) -> int | None:
+        """A cell one move nearer the charger that the agent can step into now."""
+        dist = self.belief.charger_dist
+        nearer = dist[a.index] - 1
+        for s in self.belief.steps:
+            v = a.index + s
+            if dist[v] == nearer and self._occupant.get(v, a.id) == a.id:
+                return v
+        return None
 
     def _still_letting_pass(self, b: _Agent) -> bool:
         """Stay aside until the agent let through has gone past the cell given up."""

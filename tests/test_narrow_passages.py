@@ -9,13 +9,17 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from gcs.simulate import SimOptions, simulate
-from planner.coordinator import PlannerEvent
+from planner.coordinator import _GIVEN_WAY_AFTER, ActionKind, AgentMode, Coordinator, PlannerEvent
+from planner.grid import Cell, CellState
+from planner.settings import AgentSpec, PlannerSettings
 from sitl_mock.gridmap import GridMap
 from sitl_mock.mapgen import entrance, rooms
 from sitl_mock.maps import make_map
 from tests.checks import check_run, energy_for_round_trips, make_mission
 
 pytestmark = pytest.mark.timeout(300)
+
+FREE, OBST = CellState.FREE, CellState.OBSTACLE
 
 
 def room_beyond_passage(room_h: int, room_w: int, length: int, width: int) -> GridMap:
@@ -71,3 +75,42 @@ def test_an_agent_too_low_to_step_aside_goes_home_and_the_corridor_clears() -> N
     about 1400 iterations."""
     grid = rooms(46, 55, 966984, door_width=1, corridor_width=1, room_min=3, room_max=8)
     run_through(grid, 45, trips=2.985, limit=6000)
+
+
+def _placed(rows: list[str], agents: dict[int, Cell]) -> Coordinator:
+    """A coordinator over a known map (``C`` the charger) with agents placed."""
+    known = np.array([[OBST if ch == "#" else FREE for ch in r] for r in rows], dtype=np.int8)
+    charger = next((r, row.index("C")) for r, row in enumerate(rows) if "C" in row)
+    specs = [AgentSpec(i, 0.1) for i in agents]
+    c = Coordinator(known.shape, charger, specs, PlannerSettings(), prior=known)
+    for i, cell in agents.items():
+        c.observe(i, cell, {}, 100.0)
+    return c
+
+
+def test_an_agent_asked_to_make_way_by_one_long_held_up_going_home_goes_home_too() -> None:
+    """A passage two cells wide: the cell aside is the other lane of the queue coming
+    home, and the two lanes took turns at asking, so that the agent paced between
+    them for ever (rooms 1000x1000, 50 agents)."""
+    c = _placed(["####", "#..#", "#..#", "#..#", "#C##"], {1: (2, 1), 2: (1, 1)})
+    returning, idle = c._agents[2], c._agents[1]
+    returning.mode = AgentMode.RETURN
+    returning.path = [c.belief.index(cell) for cell in [(2, 1), (3, 1), (4, 1)]]
+    returning.waited = _GIVEN_WAY_AFTER * c.settings.patience
+    idle.make_way_for = 2
+    c.decide(1)
+    assert c.mode(1) == AgentMode.RETURN
+
+
+def test_an_agent_going_home_asked_again_while_aside_steps_on_home() -> None:
+    """Agents going home in the room before the charger's door: one that had
+    stepped aside was asked back by the next, and paced between two cells for
+    ever (rooms 1000x1000, 50 agents). A step on home frees the cell as well."""
+    c = _placed(["#####", "#...#", "#...#", "##C##"], {1: (2, 2), 2: (2, 1), 3: (1, 2)})
+    going_home, behind = c._agents[1], c._agents[3]
+    going_home.mode = behind.mode = AgentMode.RETURN
+    behind.path = [c.belief.index(cell) for cell in [(2, 2), (3, 2)]]
+    going_home.letting_pass = (2, c.belief.index((2, 3)), 8)
+    going_home.make_way_for = 3
+    action = c.decide(1)
+    assert action.kind == ActionKind.MOVE and action.to == (3, 2)
