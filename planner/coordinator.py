@@ -803,6 +803,10 @@ class Coordinator:
         a = self._agents[b.make_way_for]
         b.make_way_for = None
         pushed, b.pushed = b.pushed, False
+        if b.index == self.belief.charger_index:
+            # The pad has room for all: nobody waits for it. (Asked from the cell
+            # it has just left, held until it decides again, it stepped out again.)
+            return None
         if not pushed and (not a.path or a.path[0] != b.index):
             return None
         if b.mode in _HOMEWARD and b.letting_pass is not None:

@@ -114,3 +114,14 @@ def test_an_agent_going_home_asked_again_while_aside_steps_on_home() -> None:
     going_home.make_way_for = 3
     action = c.decide(1)
     assert action.kind == ActionKind.MOVE and action.to == (3, 2)
+
+
+def test_an_agent_on_the_charger_never_steps_out_to_make_way() -> None:
+    """The pad has room for all, so nobody waits for it; but asked from the cell it
+    had just left (held until it decides again), an agent that had come home
+    stepped out again, and back, for ever (rooms 1000x1000, 50 agents)."""
+    c = _placed(["#####", "#...#", "#...#", "##C##"], {1: (3, 2), 2: (2, 1)})
+    home = c._agents[1]
+    home.mode = AgentMode.RETURN
+    home.make_way_for, home.pushed = 2, True
+    assert c.decide(1).kind == ActionKind.CHARGE
