@@ -809,6 +809,12 @@ class Coordinator:
             return None
         if not pushed and (not a.path or a.path[0] != b.index):
             return None
+        if pushed and b.mode in _HOMEWARD:
+            # Agents going home walk down the distance field to a pad with room
+            # for all, so they never wait on each other in a circle: one waits
+            # for those ahead, not steps aside for a queue's push (in a crowd
+            # before the charger's door, pushes went round and round).
+            return None
         if b.mode in _HOMEWARD and b.letting_pass is not None:
             # Asked again while aside: a step on home frees the cell as well. Else
             # it may be asked back by the next agent, and pace between two cells
