@@ -798,7 +798,15 @@ class Coordinator:
                 blocker.make_way_for = a.id
 
     def _make_way(self, b: _Agent) -> Action | None:
-        """Step aside for the agent that asked, if it still needs this cell."""
+        """Step aside for the agent that asked, if it still needs this cell.
+
+        Where two queues meet in a narrow passage, stepping aside one by one can
+        go on for ever. What drains a jam is that agents going home walk down
+        the distance field to a pad with room for all, so they never wait on
+        each other in a circle: they are not pushed aside, and an agent in the
+        way of one long held up, or boxed in, or too low on battery to step
+        aside, goes home with them.
+        """
         assert b.make_way_for is not None
         a = self._agents[b.make_way_for]
         b.make_way_for = None
