@@ -117,8 +117,9 @@ _PRIORITY = {AgentMode.RETURN: 3, AgentMode.HOMING: 2, AgentMode.TRANSIT: 1}
 _WORKING = frozenset({AgentMode.EXPLORE, AgentMode.TRANSIT})
 _HOMEWARD = frozenset({AgentMode.RETURN, AgentMode.HOMING})
 #: An agent going home held up this many times ``patience`` is given the cell it
-#: waits for (``_kept_waiting_for``): late enough to leave ordinary crossings to
-#: the order of decisions, as before, and to settle a jam.
+#: waits for (``_kept_waiting_for``), and the agent it asks to make way goes home
+#: with it (``_make_way``): late enough to leave ordinary crossings to the order
+#: of decisions, as before, and to settle a jam.
 _GIVEN_WAY_AFTER = 8
 
 
@@ -750,14 +751,12 @@ class Coordinator:
         another, for ever.
         """
         for c in self._agents_beside(index):
-            if (
-                c.mode in _HOMEWARD
-                and c.waited >= _GIVEN_WAY_AFTER * self.settings.patience
-                and c.path
-                and c.path[0] == index
-            ):
+            if self._long_held_up_going_home(c) and c.path and c.path[0] == index:
                 return True
         return False
+
+    def _long_held_up_going_home(self, a: _Agent) -> bool:
+        return a.mode in _HOMEWARD and a.waited >= _GIVEN_WAY_AFTER * self.settings.patience
 
     def _agents_beside(self, index: int) -> Iterator[_Agent]:
         """The agents in the cells next to ``index`` (N, S, E, W)."""
@@ -832,11 +831,7 @@ class Coordinator:
                 b.letting_pass = None
                 b.path.clear()
                 return self._move(b, on)
-        if (
-            a.mode in _HOMEWARD
-            and b.mode not in _HOMEWARD
-            and a.waited >= _GIVEN_WAY_AFTER * self.settings.patience
-        ):
+        if self._long_held_up_going_home(a) and b.mode not in _HOMEWARD:
             # Stepping aside has long not let it through: in a passage two cells
             # wide the cell aside is the other lane of the queue coming home, and
             # the two lanes take turns at asking, so that the agent paces between

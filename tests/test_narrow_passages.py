@@ -14,7 +14,7 @@ from planner.grid import Cell, CellState
 from planner.settings import AgentSpec, PlannerSettings
 from sitl_mock.gridmap import GridMap
 from sitl_mock.mapgen import entrance, rooms
-from sitl_mock.maps import make_map
+from sitl_mock.maps import make_map, parse_ascii
 from tests.checks import check_run, energy_for_round_trips, make_mission
 
 pytestmark = pytest.mark.timeout(300)
@@ -79,10 +79,10 @@ def test_an_agent_too_low_to_step_aside_goes_home_and_the_corridor_clears() -> N
 
 def _placed(rows: list[str], agents: dict[int, Cell]) -> Coordinator:
     """A coordinator over a known map (``C`` the charger) with agents placed."""
-    known = np.array([[OBST if ch == "#" else FREE for ch in r] for r in rows], dtype=np.int8)
-    charger = next((r, row.index("C")) for r, row in enumerate(rows) if "C" in row)
+    grid = parse_ascii("\n".join(rows))
+    known = np.where(grid.obstacle, OBST, FREE).astype(np.int8)
     specs = [AgentSpec(i, 0.1) for i in agents]
-    c = Coordinator(known.shape, charger, specs, PlannerSettings(), prior=known)
+    c = Coordinator(grid.shape, grid.charger, specs, PlannerSettings(), prior=known)
     for i, cell in agents.items():
         c.observe(i, cell, {}, 100.0)
     return c
