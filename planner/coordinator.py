@@ -17,6 +17,7 @@ with room for the whole fleet: agents standing on it occupy nothing.
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from enum import IntEnum, StrEnum
@@ -132,7 +133,7 @@ class _Agent:
     memo: HorizonMemo
     battery_pct: float = 100.0
     _mode: AgentMode = AgentMode.EXPLORE
-    path: list[int] = field(default_factory=list)  # remaining moves, next first
+    path: deque[int] = field(default_factory=deque)  # remaining moves, next first
     goal: int | None = None
     heading: Direction | None = None
     pending: int | None = None  # reserved target of the move under way
@@ -152,10 +153,10 @@ class _Agent:
     held_backoff: int = 0
     #: Asked to make way by an agent that is itself making way (see ``_make_way``).
     pushed: bool = False
+    id: int = field(init=False)
 
-    @property
-    def id(self) -> int:
-        return self.spec.id
+    def __post_init__(self) -> None:
+        self.id = self.spec.id
 
     @property
     def mode(self) -> AgentMode:
@@ -202,8 +203,11 @@ class Coordinator:
         self._events: list[PlannerEvent] = []
         self._complete = False
         self._witness: int | None = None  # see ``coverage_complete``
+        self._witness_key: tuple[float | None, int] | None = None
         self._recalled = False  # see ``recall``
         self._search = TargetSearch(self.belief)
+        #: The direction of a move, by the difference of the flat indices.
+        self._heading_of = {self.belief.offset[d]: d for d in MOVES}
         self._roadmap = (
             Roadmap(self.settings) if self.settings.path_planner == PathPlannerKind.PRM else None
         )
@@ -242,16 +246,23 @@ class Coordinator:
         Judged afresh every time: online, a better estimate of the agents'
         consumption can bring cells judged out of range back into range.
         """
-        witness = self._witness
+        belief, witness = self.belief, self._witness
         if (
-            witness is None
-            or not self.belief.uncovered_mask[witness]
-            or not self._in_range(witness)
+            witness is not None
+            and belief.uncovered_mask[witness]
+            and self._witness_key == (self._best_cost, belief.blocked_count)
         ):
+            # Judged in range under the same costs, and reachable: its way home can only
+            # have become shorter since (unless a cell was blocked).
+            self._complete = False
+            return False
+        if witness is None or not belief.uncovered_mask[witness] or not self._in_range(witness):
             # An uncovered cell in range, kept while it stays one: most calls need no scan.
-            witness = self._witness = next(
-                (i for i in self.belief.uncovered if self._in_range(i)), None
-            )
+            witness = self._witness = next((i for i in belief.uncovered if self._in_range(i)), None)
+        if witness is not None and belief.charger_dist[witness] < UNREACHED:
+            self._witness_key = (self._best_cost, belief.blocked_count)
+        else:
+            self._witness_key = None
         complete = witness is None
         if complete and not self._complete:
             self._events.append(PlannerEvent(EventKind.COVERAGE_COMPLETE, -1))
@@ -292,8 +303,9 @@ class Coordinator:
             self._release(a.pending, a.id)
         a.pending = None
         if index != a.index:
-            if abs(index - a.index) in (1, belief.stride):
-                a.heading = Direction.between(belief.cell(a.index), cell)
+            heading = self._heading_of.get(index - a.index)
+            if heading is not None:
+                a.heading = heading
             else:
                 a.path.clear()  # displaced: plans from here on
             # The cell just left stays held until the agent decides again, so
@@ -392,24 +404,22 @@ class Coordinator:
         if a.trailing is not None:
             self._release(a.trailing, a.id)
             a.trailing = None
-        if a.mode == AgentMode.LOST:
+        mode = a.mode
+        if mode == AgentMode.LOST:
             return WAIT
-        if a.mode in (AgentMode.DONE, AgentMode.HOMING) and not self.homeward:
-            a.mode = AgentMode.IDLE  # back to work: something came into range again
-        if a.mode == AgentMode.DONE:
+        if (mode == AgentMode.DONE or mode == AgentMode.HOMING) and not self.homeward:
+            a.mode = mode = AgentMode.IDLE  # back to work: something came into range again
+        if mode == AgentMode.DONE:
             return WAIT
-        at_charger = a.index == self.belief.charger_index
-        if self.belief.charger_dist[a.index] == UNREACHED:
+        here = a.index
+        at_charger = here == self.belief.charger_index
+        if self.belief.charger_dist[here] == UNREACHED:
             return self._reconnect(a)
-        if a.mode == AgentMode.CHARGE:
+        if mode == AgentMode.CHARGE:
             if a.battery_pct < self.settings.resume_pct - _EPS and not self._recalled:
                 return CHARGE
-            a.mode = AgentMode.IDLE
-        if (
-            not at_charger
-            and a.mode not in (AgentMode.RETURN, AgentMode.HOMING)
-            and not self._can_afford(a, 0, a.index)
-        ):
+            a.mode = mode = AgentMode.IDLE
+        if not at_charger and mode not in _HOMEWARD and not self._can_afford(a, 0, here):
             # The battery fell without a move (a copter hovering while it waits, a
             # sag, a worse estimate of its consumption): home now, before the reserve.
             return self._go_charge(a)
@@ -419,13 +429,14 @@ class Coordinator:
                 return action
         if a.letting_pass is not None and self._still_letting_pass(a):
             return WAIT
-        if self.homeward and a.mode not in (AgentMode.RETURN, AgentMode.HOMING):
+        mode = a.mode
+        if self.homeward and mode not in _HOMEWARD:
             self._drop_claim(a)
-            a.mode = AgentMode.HOMING
+            a.mode = mode = AgentMode.HOMING
             a.path.clear()
-        if a.mode in (AgentMode.RETURN, AgentMode.HOMING):
+        if mode in _HOMEWARD:
             if at_charger:
-                if a.mode == AgentMode.HOMING or self._recalled:
+                if mode == AgentMode.HOMING or self._recalled:
                     a.mode = AgentMode.DONE
                     return WAIT
                 a.mode = AgentMode.CHARGE
@@ -433,15 +444,15 @@ class Coordinator:
                 self._events.append(PlannerEvent(EventKind.CHARGED, a.id, self.belief.charger))
                 return CHARGE
             return self._follow(a, self.belief.charger_index)
-        if a.mode == AgentMode.TRANSIT:
+        if mode == AgentMode.TRANSIT:
             assert a.goal is not None
             # Re-deciding needs consistent shortest paths: with the roadmap a
             # fresh path from one step on can be longer than the rest of the
             # old one, and the agent would turn back before every arrival.
             replan = self.settings.replan_transit and self._roadmap is None
             if not (
-                a.index == a.goal
-                or a.goal not in self.belief.uncovered
+                here == a.goal
+                or not self.belief.uncovered_mask[a.goal]
                 # An uncovered cell beside the way is swept at once.
                 or (replan and (a.recheck_in <= 0 or self._bm_next(a) is not None))
             ):
@@ -576,7 +587,8 @@ class Coordinator:
                 # and the agent paces between them for ever.
                 path = old_path
             self._claims[goal] = a.id
-            a.goal, a.path, a.mode = goal, path, AgentMode.TRANSIT
+            a.goal, a.mode = goal, AgentMode.TRANSIT
+            a.path = path if path is old_path else deque(path)
             a.path_known_at = self.belief.stamp
             if self.settings.far_transit_recheck:
                 a.recheck_in = max(0, (len(path) - self.settings.far_transit_recheck) // 2)
@@ -596,8 +608,8 @@ class Coordinator:
         self,
         a: _Agent,
         pool: Iterable[int] | None,
-        hint: tuple[int, list[int], tuple[int, int] | None] | None = None,
-    ) -> tuple[int, list[int]] | _Held | None:
+        hint: tuple[int, Sequence[int], tuple[int, int] | None] | None = None,
+    ) -> tuple[int, Sequence[int]] | _Held | None:
         """The closest target of ``pool`` (None: every uncovered cell) that the agent
         can afford, preferring those no other working agent is closer to (they are
         likely to be swept by that agent). Claimed and out-of-range cells are not
@@ -723,7 +735,7 @@ class Coordinator:
                 return WAIT
             if a.mode == AgentMode.TRANSIT and not self._can_afford(a, len(path), goal):
                 return self._go_charge(a)  # the new way there is longer than budgeted
-            a.path = path
+            a.path = deque(path)
             shortest = self._roadmap is None or goal == self.belief.charger_index
             a.path_known_at = self.belief.stamp if shortest else None
         nxt = a.path[0]
@@ -731,12 +743,12 @@ class Coordinator:
         if blocker is None or blocker == a.id:
             if a.mode not in _HOMEWARD and self._kept_waiting_for(nxt):
                 return WAIT
-            a.path.pop(0)
+            a.path.popleft()
             return self._move(a, nxt)
         detour = self._detour(a, goal)
         if detour is not None:
-            a.path, a.path_known_at = detour, None
-            return self._move(a, a.path.pop(0))
+            a.path, a.path_known_at = deque(detour), None
+            return self._move(a, a.path.popleft())
         a.waited += 1
         if a.waited >= self.settings.patience:
             self._ask_to_make_way(a, self._agents[blocker])

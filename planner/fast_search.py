@@ -10,7 +10,7 @@ compiled to machine code.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 from numba import njit
@@ -493,6 +493,30 @@ class Team:
         return self.rows[mask], self.cols[mask]
 
 
+@njit(cache=True, nogil=True)
+def _moved_within(
+    rows0: np.ndarray,
+    cols0: np.ndarray,
+    others0: np.ndarray,
+    rows: np.ndarray,
+    cols: np.ndarray,
+    working: np.ndarray,
+    slot: int,
+    margin: int,
+) -> bool:
+    """``HorizonMemo``'s test: none of ``others0`` stopped working, and the largest
+    move of one of them (Manhattan) plus the move of ``slot`` is within ``margin``."""
+    farthest = 0
+    for j in range(rows.size):
+        if others0[j]:
+            if not working[j]:
+                return False
+            m = abs(rows[j] - rows0[j]) + abs(cols[j] - cols0[j])
+            if m > farthest:
+                farthest = m
+    return farthest + abs(rows[slot] - rows0[slot]) + abs(cols[slot] - cols0[slot]) <= margin
+
+
 class HorizonMemo:
     """One agent's shortlist for the horizon pass of its target searches.
 
@@ -510,28 +534,46 @@ class HorizonMemo:
     def __init__(self, team: Team, slot: int) -> None:
         self._team = team
         self._slot = slot
-        self.kept: np.ndarray | None = None
-        self._since = 0
+        #: The team when the cells were kept (rows, columns, the others ranked against);
+        #: None while nothing is kept.
         self._at: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._since = 0  # ``MapBelief.added_count`` when they were kept
+        #: The shortlist: the ``_kept`` cells, then those added since, in the first
+        #: ``_listed`` items (grown by what was added in between, when handed out).
+        self._buffer = np.zeros(0, dtype=np.int64)
+        self._kept = 0
+        self._listed = 0
 
     def shortlist(self, belief: MapBelief) -> np.ndarray | None:
         """The cells to pass over, or None when a full pass is due."""
-        if self.kept is None or self._at is None:
+        if self._at is None:
             return None
         team = self._team
         rows0, cols0, others0 = self._at
-        if (others0 & ~team.working).any():
-            return None  # one of them stopped working: cells it was nearer to are open
-        moved = np.abs(team.rows - rows0) + np.abs(team.cols - cols0)
-        if moved[others0].max(initial=0) + moved[self._slot] > self.MARGIN:
+        if not _moved_within(
+            rows0, cols0, others0, team.rows, team.cols, team.working, self._slot, self.MARGIN
+        ):
             return None
-        added = np.frombuffer(belief.added, dtype=np.int64)[self._since : belief.added_count]
-        return np.concatenate((self.kept, added))
+        size = self._kept + belief.added_count - self._since
+        if size > self._buffer.size:
+            grown = np.zeros(max(size, 2 * self._buffer.size), dtype=np.int64)
+            grown[: self._listed] = self._buffer[: self._listed]
+            self._buffer = grown
+        if size > self._listed:
+            added = np.frombuffer(belief.added, dtype=np.int64)
+            first = self._since + self._listed - self._kept
+            self._buffer[self._listed : size] = added[first : belief.added_count]
+            self._listed = size
+        return self._buffer[:size]
 
     def remember(self, kept: np.ndarray, belief: MapBelief) -> None:
         team = self._team
-        self.kept, self._since = kept.copy(), belief.added_count
         self._at = (team.rows.copy(), team.cols.copy(), team.others_mask(self._slot))
+        self._since = belief.added_count
+        if kept.size > self._buffer.size:
+            self._buffer = np.zeros(2 * kept.size, dtype=np.int64)
+        self._buffer[: kept.size] = kept
+        self._kept = self._listed = kept.size
 
 
 class TargetSearch:
@@ -607,7 +649,7 @@ class TargetSearch:
         self,
         start: int,
         goal: int,
-        way: list[int],
+        way: Sequence[int],
         known_at: tuple[int, int] | None,
         listed: np.ndarray,
         margin: int,
@@ -615,7 +657,7 @@ class TargetSearch:
         energy: tuple[float, float, float, float, float],
         others: tuple[np.ndarray, np.ndarray],
         hold: int,
-    ) -> tuple[int, int, list[int]] | None:
+    ) -> tuple[int, int, Sequence[int]] | None:
         """What the search from ``start`` would return, found without it when the
         agent is on ``way`` to ``goal``; None when only the search can tell.
 
@@ -682,7 +724,7 @@ class TargetSearch:
         if count == self.RIVALS:
             return None  # too many to look at one by one: the search is as quick
         if count == 0 and self._still_shortest(start, goal, moves, known_at):
-            return rank, goal, list(way)
+            return rank, goal, way
         self._rivals[count] = goal
         return self._first_among(
             start, self._rivals[: count + 1], moves, rank, hold, others, energy
@@ -799,8 +841,8 @@ class TargetSearch:
         excluded: list[int],
         pool: Iterable[int] | None = None,
         memo: HorizonMemo | None = None,
-        hint: tuple[int, list[int], tuple[int, int] | None] | None = None,
-    ) -> tuple[int, int, list[int]] | None:
+        hint: tuple[int, Sequence[int], tuple[int, int] | None] | None = None,
+    ) -> tuple[int, int, Sequence[int]] | None:
         """The best target as ``(rank, cell, path)`` among ``pool`` (None: the
         uncovered cells), ranked against the ``others`` (rows, columns) agents;
         ``excluded`` cells (claimed by other agents) are not candidates.

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planner.grid import NEIGHBOURS, Cell, CellState, Direction, manhattan
+from planner.grid import NEIGHBOURS, Cell, CellState, Direction
 from sitl_mock.gridmap import GridMap
 
 
@@ -75,9 +75,10 @@ class LockstepWorld:
         if agent in self.dead:
             raise WorldError(f"agent {agent} is dead and cannot move")
         here = self.position[agent]
-        if manhattan(here, to) != 1:
+        if abs(here[0] - to[0]) + abs(here[1] - to[1]) != 1:
             raise WorldError(f"agent {agent}: {here} -> {to} is not a move to a neighbour")
-        if not self.grid.is_free(to):
+        # A neighbour of a cell on the map is on the map or on its border (not free).
+        if not self._free[(to[0] + 1) * self._stride + to[1] + 1]:
             raise WorldError(f"agent {agent}: {to} is an obstacle")
         other = self._held.get(to, agent)
         if other != agent:
@@ -91,7 +92,8 @@ class LockstepWorld:
         if self.battery[agent] <= 0:
             self.battery[agent] = 0.0
             self.dead.add(agent)
-        self._leave_queue(agent)
+        if self._queue:
+            self._leave_queue(agent)
 
     def request_charge(self, agent: int) -> None:
         """The agent stays on the pad and wants charge this iteration."""
