@@ -91,14 +91,20 @@ async def test_float_mission_request_answered_with_item_int() -> None:
 
 
 async def test_duplicate_requests_answered_once() -> None:
+    """A request already waiting behind another for the same item is dropped and
+    counted, not answered. (A request may also arrive only after its twin was
+    answered, and the vehicle asks again when an item is slow to come, as on a
+    loaded machine: so the counts are bounded, not fixed.)"""
     items = sample_items(20)
     async with connected(FakeOptions(duplicate_requests=True)) as (fake, link):
         report = await link.upload_mission(items)
         assert fake.mission == items
         sent = [m for m in fake.received if m.get_type() == "MISSION_ITEM_INT"]
+        requests = len(fake.requests_sent)
         assert report.duplicate_requests >= 1
-        assert len(sent) == 20 + (20 - report.duplicate_requests)
-        assert len(sent) < 40
+        # Every request is answered once at most, and those dropped are counted.
+        assert len(sent) + report.duplicate_requests <= requests
+        assert 20 <= len(sent) < requests
 
 
 async def test_out_of_sequence_requests() -> None:
