@@ -75,6 +75,12 @@ class MapBelief:
         #: since some moment is a slice).
         self.added = array("q", bytes(8 * size))
         self.added_count = 0
+        #: The cells that, becoming free, may have shortened a way between cells the
+        #: charger reached before (``_may_shorten``), in order: the first
+        #: ``shortcut_count`` items. Every other cell that becomes free leaves the
+        #: distances between those cells as they were.
+        self.shortcuts = array("q", bytes(8 * size))
+        self.shortcut_count = 0
         #: How many free cells were blocked for good (``block``).
         self.blocked_count = 0
         #: How many cells are known to be impassable (obstacles sensed, cells blocked).
@@ -113,10 +119,10 @@ class MapBelief:
 
     @property
     def stamp(self) -> tuple[int, int]:
-        """How far the map has changed: cells that became free, cells blocked. A
-        shortest path at one stamp is one still unless a cell blocked since,
-        or one that became free since opens a shorter way."""
-        return self.added_count, self.blocked_count
+        """How far the map has changed: cells that may have shortened a way
+        (``shortcuts``), cells blocked. A shortest path at one stamp is one still
+        unless a cell was blocked since, or one of those since opens a shorter way."""
+        return self.shortcut_count, self.blocked_count
 
     # -- updates ------------------------------------------------------------
 
@@ -175,7 +181,33 @@ class MapBelief:
         dist[self.charger_index] = 0
         self._relax_from(self.charger_index)
 
+    def _may_shorten(self, i: int) -> bool:
+        """Could cell ``i``, becoming free, shorten a way between two cells that the
+        charger reached before?
+
+        Such a way would run through two of its neighbours that the charger
+        reached, and no shorter than before when those two were at most two
+        moves apart already: two on the same side of ``i`` (N and E, say) are,
+        through the cell in their corner if that is free; two on opposite sides
+        never are (but through ``i``). A look at the 3x3 cells around ``i``.
+        """
+        dist, state = self.charger_dist, self.state
+        up, down, right, left = self.steps
+        n, s = dist[i + up] < UNREACHED, dist[i + down] < UNREACHED
+        e, w = dist[i + right] < UNREACHED, dist[i + left] < UNREACHED
+        return (
+            (n and s)
+            or (e and w)
+            or (n and e and state[i + up + right] != _FREE)
+            or (n and w and state[i + up + left] != _FREE)
+            or (s and e and state[i + down + right] != _FREE)
+            or (s and w and state[i + down + left] != _FREE)
+        )
+
     def _set_free(self, i: int) -> None:
+        if self._may_shorten(i):
+            self.shortcuts[self.shortcut_count] = i
+            self.shortcut_count += 1
         self.state[i] = _FREE
         self.free_count += 1
         if not self.covered[i] and not self.uncovered_mask[i]:

@@ -388,6 +388,29 @@ def _first_among(
 
 
 @njit(cache=True, nogil=True)
+def _none_between(
+    cells: np.ndarray, start: int, goal: int, moves: int, stride: int, home: np.ndarray
+) -> bool:
+    """Does no way from ``start`` to ``goal`` through any of ``cells`` come to less
+    than ``moves``, by the lower bounds of ``_rivals_listed``?"""
+    r0 = start // stride
+    c0 = start % stride
+    r1 = goal // stride
+    c1 = goal % stride
+    h0 = home[start]
+    h1 = home[goal]
+    for k in range(cells.size):
+        v = cells[k]
+        r = v // stride
+        c = v % stride
+        there = max(abs(r - r0) + abs(c - c0), abs(home[v] - h0))
+        on = max(abs(r - r1) + abs(c - c1), abs(home[v] - h1))
+        if there + on < moves:
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
 def _path_search(
     state: np.ndarray,
     blocked: np.ndarray,
@@ -593,6 +616,7 @@ class TargetSearch:
         self.state = np.frombuffer(belief.state, dtype=np.uint8)
         self.candidate = np.frombuffer(belief.uncovered_mask, dtype=np.uint8)
         self.uncovered_list = np.frombuffer(belief.uncovered_list, dtype=np.int64)
+        self.shortcuts = np.frombuffer(belief.shortcuts, dtype=np.int64)
         self._kept = np.zeros(size, dtype=np.int64)
         self._way = np.zeros(size, dtype=np.int64)
         self._near = np.zeros(size, dtype=np.int64)
@@ -804,9 +828,11 @@ class TargetSearch:
 
         So when ``moves`` is the Manhattan distance. So too when a way that
         long was a shortest way at ``known_at`` (``MapBelief.stamp``, and the
-        agent has kept to it since), no cell was blocked since, and no cell
-        that became free since lies where a shorter way could pass: by the
-        bounds of ``_rivals_listed`` (in rooms, most new cells lie within the
+        agent has kept to it since), no cell was blocked since, and none of
+        the cells that may have shortened a way since (``MapBelief.shortcuts``:
+        every other new cell leaves the distances between the cells known
+        before as they were) lies where a shorter way could pass: by the
+        bounds of ``_rivals_listed`` (in rooms, many such cells lie within the
         Manhattan bound of a way round a wall, but their distance home, as
         known now, tells that they are too far from one end or the other).
         """
@@ -820,13 +846,8 @@ class TargetSearch:
         belief = self.belief
         if blocked != belief.blocked_count:
             return False
-        new = np.frombuffer(belief.added, dtype=np.int64)[since : belief.added_count]
-        rows, cols = new // stride, new % stride
-        home = self.home
-        at = home[new].astype(np.int64)
-        there = np.maximum(np.abs(rows - r0) + np.abs(cols - c0), np.abs(at - int(home[start])))
-        on = np.maximum(np.abs(rows - r1) + np.abs(cols - c1), np.abs(at - int(home[goal])))
-        return bool((there + on >= moves).all())
+        new = self.shortcuts[since : belief.shortcut_count]
+        return _none_between(new, start, goal, moves, stride, self.home)
 
     def run(
         self,

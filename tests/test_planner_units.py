@@ -17,7 +17,7 @@ from planner.paths import bfs_distances, nearest, path_to_charger, shortest_path
 from planner.prm import Roadmap, line_cells
 from planner.settings import AgentSpec, BmRule, PathPlannerKind, PlannerSettings
 from sitl_mock import mapgen
-from sitl_mock.maps import parse_ascii
+from sitl_mock.maps import make_map, parse_ascii
 
 FREE, OBST = CellState.FREE, CellState.OBSTACLE
 
@@ -93,6 +93,48 @@ def test_incremental_charger_distances_equal_a_fresh_search(seed: int, kind: str
     truth = true_distances(grid, grid.charger)
     for cell in cells:
         assert belief.distance_to_charger(cell) == truth.get(cell, UNREACHED)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    kind=st.sampled_from(["bars", "caves", "rooms", "scatter"]),
+    order=st.sampled_from(["shuffled", "wavefront"]),
+)
+def test_a_cell_not_listed_as_a_shortcut_shortens_no_way(seed: int, kind: str, order: str) -> None:
+    """Cells become free in any order, or as a ragged wavefront from the charger:
+    after each one that ``MapBelief.shortcuts`` does not list, every two cells the
+    charger reached before are as far apart as they were."""
+    rng = np.random.default_rng(seed)
+    if kind == "scatter":
+        walls = rng.random((9, 9)) < rng.uniform(0.0, 0.4)
+        walls[8, 4] = False
+        grid = make_map(walls, ((8, 4),))
+    else:
+        make = {"bars": mapgen.bars, "caves": mapgen.caves, "rooms": mapgen.rooms}[kind]
+        grid = make(9, 10, seed=seed)
+    cells = [tuple(map(int, rc)) for rc in np.argwhere(~grid.obstacle)]
+    if order == "shuffled":
+        rng.shuffle(cells)
+    else:
+        far = true_distances(grid, grid.charger)
+        cells.sort(key=lambda c: far.get(c, 99) + rng.integers(0, 4))
+    belief = MapBelief(grid.shape, grid.charger)
+
+    def distances() -> dict[tuple[Cell, Cell], int]:
+        known = make_map(belief.state_grid() != FREE, (grid.charger,))  # walls where unknown
+        reached = [c for c in cells if belief.distance_to_charger(c) < UNREACHED]
+        return {
+            (a, b): d for a in reached for b, d in true_distances(known, a).items() if b in reached
+        }
+
+    for cell in cells:
+        before = distances()
+        listed = belief.shortcut_count
+        belief.mark_free(belief.index(cell))
+        if belief.shortcut_count == listed:
+            after = distances()
+            assert all(after[pair] == d for pair, d in before.items()), cell
 
 
 # -- paths -------------------------------------------------------------------
