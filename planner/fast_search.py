@@ -312,15 +312,181 @@ def _first_among(
     """``_search`` when only the ``targets`` (candidates in range, and reached
     from home) can be what it returns, all within ``bound`` moves: the first
     of them it reaches that the agent can afford and that ranks ``rank`` or
-    better, as (rank, cell), or (-1, -1).
+    better, as (rank, cell), or (-1, -1); ``parent`` holds the path there.
 
-    Breadth-first from the start in the same order, over the cells whose
+    When no target is nearer than ``bound`` by Manhattan distance (on open
+    maps, a transit's target and the rivals as far as it), the walk of
+    ``_first_tied`` finds it; else ``_first_reached``, breadth-first.
+    """
+    r0 = start // stride
+    c0 = start % stride
+    for i in range(targets.size):
+        t = targets[i]
+        if abs(t // stride - r0) + abs(t % stride - c0) < bound:
+            return _first_reached(
+                state, candidate, targets, start, stride, bound, rank, hold,
+                others_r, others_c, home, energy, seen, stamp, parent, queue,
+            )  # fmt: skip
+    return _first_tied(
+        state, candidate, targets, start, stride, bound, rank, hold,
+        others_r, others_c, home, energy, seen, stamp, parent, queue,
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _target_rank(
+    v: int,
+    d: int,
+    rank: int,
+    hold: int,
+    stride: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+) -> int:
+    """The rank of candidate ``v`` reached at ``d`` moves, as ``_search`` ranks it,
+    or -1 when it is worse than ``rank`` or the agent cannot afford it there."""
+    battery, cost, floor, _, _ = energy
+    if battery - cost * (d + home[v]) < floor:
+        return -1
+    r = v // stride - 1
+    c = v % stride - 1
+    near = UNREACHED
+    for j in range(others_r.size):
+        m = abs(r - others_r[j]) + abs(c - others_c[j])
+        if m < near:
+            near = m
+    if near >= d:
+        found = 0
+    elif hold > 0 and near >= min(d, hold + 1):
+        found = 1
+    else:
+        found = 2
+    return found if found <= rank else -1
+
+
+@njit(cache=True, nogil=True)
+def _first_tied(
+    state: np.ndarray,
+    candidate: np.ndarray,
+    targets: np.ndarray,
+    start: int,
+    stride: int,
+    bound: int,
+    rank: int,
+    hold: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+    seen: np.ndarray,
+    stamp: int,
+    parent: np.ndarray,
+    stack: np.ndarray,
+) -> tuple[int, int]:
+    """``_first_reached`` when no target is nearer than ``bound`` by Manhattan
+    distance, without visiting the cells between.
+
+    The breadth-first search reaches the cells one move farther in the order
+    of their parents, and a parent's in the order N, S, E, W: it reaches a
+    cell first by the shortest way whose moves come first in that order, and
+    of the targets at one distance, first the one at the end of the first of
+    these ways. A target can then only be reached at ``bound`` moves, by a
+    way every move of which brings it one nearer (Manhattan), so on such a
+    way each cell's distance from the start is its Manhattan distance. A
+    depth-first walk trying N, S, E, W in turn, over the cells the breadth-first
+    search would admit that lie on such a way to a target it would take, and
+    never twice over a cell (one that led nowhere leads nowhere by any way
+    there), finds the first of these ways: the same target, by the same path.
+    """
+    r0 = start // stride
+    c0 = start % stride
+    n = targets.size
+    # The targets that may be taken (reached at ``bound`` moves, it is their rank there).
+    taken = np.empty(n, dtype=np.int64)
+    ranks = np.empty(n, dtype=np.int64)
+    count = 0
+    for i in range(n):
+        t = targets[i]
+        if candidate[t] == 0 or abs(t // stride - r0) + abs(t % stride - c0) != bound:
+            continue
+        found = _target_rank(t, bound, rank, hold, stride, others_r, others_c, home, energy)
+        if found >= 0:
+            taken[count] = t
+            ranks[count] = found
+            count += 1
+    if count == 0:
+        return -1, -1
+    steps = (-stride, stride, 1, -1)
+    tried = np.zeros(bound + 1, dtype=np.int8)  # the moves tried from each cell of the walk
+    seen[start] = stamp
+    stack[0] = start
+    depth = 0
+    while depth >= 0:
+        k = tried[depth]
+        if k == 4:
+            depth -= 1  # led nowhere (and stays seen)
+            continue
+        tried[depth] = k + 1
+        u = stack[depth]
+        v = u + steps[k]
+        if state[v] != _FREE or seen[v] == stamp:
+            continue
+        d = depth + 1
+        r = v // stride
+        c = v % stride
+        on_way = -1
+        for i in range(count):
+            t = taken[i]
+            if d + abs(r - t // stride) + abs(c - t % stride) == bound:
+                on_way = i
+                break
+        if on_way < 0:
+            continue
+        within = False  # as ``_first_reached`` admits cells, by every target
+        for i in range(n):
+            t = targets[i]
+            if d + max(abs(r - t // stride) + abs(c - t % stride), abs(home[v] - home[t])) <= bound:
+                within = True
+                break
+        if not within:
+            continue
+        seen[v] = stamp
+        parent[v] = u
+        if d == bound:
+            return ranks[on_way], v  # on the way to it and as far: the target itself
+        depth = d
+        stack[depth] = v
+        tried[depth] = 0
+    return -1, -1
+
+
+@njit(cache=True, nogil=True)
+def _first_reached(
+    state: np.ndarray,
+    candidate: np.ndarray,
+    targets: np.ndarray,
+    start: int,
+    stride: int,
+    bound: int,
+    rank: int,
+    hold: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+    seen: np.ndarray,
+    stamp: int,
+    parent: np.ndarray,
+    queue: np.ndarray,
+) -> tuple[int, int]:
+    """``_first_among``, breadth-first from the start in ``_search``'s order, over the cells whose
     distance plus a lower bound of the way on to some target (as in
     ``_rivals_listed``) is at most ``bound``: either bound changes by at most
     one a move, so, as in ``_path_search``, the targets are reached in the
     same order, from the same parents, as by the search over the whole map.
     """
-    battery, cost, floor, _, _ = energy
     steps = (-stride, stride, 1, -1)
     n = targets.size
     toward = 0
@@ -369,20 +535,8 @@ def _first_among(
                     break
             if not target:
                 continue
-            if battery - cost * (d + home[v]) < floor:
-                continue
-            near = UNREACHED
-            for j in range(others_r.size):
-                m = abs(r - 1 - others_r[j]) + abs(c - 1 - others_c[j])
-                if m < near:
-                    near = m
-            if near >= d:
-                found = 0
-            elif hold > 0 and near >= min(d, hold + 1):
-                found = 1
-            else:
-                found = 2
-            if found <= rank:
+            found = _target_rank(v, d, rank, hold, stride, others_r, others_c, home, energy)
+            if found >= 0:
                 return found, v
     return -1, -1
 

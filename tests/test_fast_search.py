@@ -14,6 +14,7 @@ from gcs.simulate import simulate
 from planner import fast_search
 from planner.belief import UNREACHED, MapBelief
 from planner.fast_search import HorizonMemo, TargetSearch, Team, _uncontested_horizon
+from planner.grid import CellState
 from sitl_mock import mapgen
 from tests.checks import make_mission
 
@@ -329,6 +330,52 @@ def _behind_a_wall(uncovered: list[tuple[int, int]]) -> MapBelief:
         if belief.cell(i) not in uncovered:
             belief.cover(belief.cell(i), 1)
     return belief
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    agents=st.integers(0, 6),
+    hold=st.sampled_from([0, 2, 5]),
+    rank=st.integers(0, 2),
+)
+def test_targets_as_far_as_the_bound_are_found_as_breadth_first(
+    seed: int, agents: int, hold: int, rank: int
+) -> None:
+    """With no target nearer than the bound by Manhattan distance, the depth-first
+    walk finds the target the breadth-first search reaches first, by the same
+    path, on maps of scattered walls, rooms and unknown cells."""
+    rng = np.random.default_rng(seed)
+    belief, _ = _swept_map(rng, seed, rng.uniform(0.0, 0.9))
+    for i in list(belief.uncovered):  # sensed a little: unknown cells among the known
+        if rng.random() < 0.1:
+            belief.state[i] = 0
+    search = TargetSearch(belief)
+    stride = belief.stride
+    free = [i for i in range(len(belief.state)) if belief.state[i] == int(CellState.FREE)]
+    start = free[int(rng.integers(0, len(free)))]
+    r0, c0 = divmod(start, stride)
+    uncovered = sorted(belief.uncovered)
+    if not uncovered:
+        return
+    far = uncovered[int(rng.integers(0, len(uncovered)))]
+    bound = max(1, abs(far // stride - r0) + abs(far % stride - c0))
+    ring = [v for v in uncovered if abs(v // stride - r0) + abs(v % stride - c0) == bound]
+    beyond = [v for v in uncovered if abs(v // stride - r0) + abs(v % stride - c0) > bound]
+    picked = [v for v in ring if rng.random() < 0.3] + [v for v in beyond if rng.random() < 0.02]
+    targets = np.array(rng.permutation(picked), dtype=np.int64)
+    others = (rng.integers(0, SIDE, agents), rng.integers(0, SIDE, agents))
+    energy = (float(rng.uniform(20.0, 100.0)), float(rng.choice([0.0, 0.5])), 20.0, 0.5, 80.0)
+    results = []
+    for walk in (fast_search._first_tied, fast_search._first_reached):
+        search.stamp += 1
+        found = walk(
+            search.state, search.candidate, targets, start, stride, bound, rank, hold,
+            *others, search.home, energy, search.seen, search.stamp, search.parent, search.queue,
+        )  # fmt: skip
+        path = search._unwind(start, found[1]) if found[1] >= 0 else None
+        results.append((found, path))
+    assert results[0] == results[1]
 
 
 def test_a_candidate_reached_first_is_taken_only_if_affordable_there() -> None:
