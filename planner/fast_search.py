@@ -114,9 +114,18 @@ def _search(
     stamp: int,
     parent: np.ndarray,
     queue: np.ndarray,
+    found: np.ndarray,
+    spare: tuple[np.ndarray, np.ndarray],
 ) -> tuple[int, int, int]:
     """Returns (rank, cell) of the best target, or (-1, -1), and the count of
-    cells ``_uncontested_horizon`` kept (-1 if it did not keep any)."""
+    cells ``_uncontested_horizon`` kept (-1 if it did not keep any).
+
+    ``found`` and ``spare`` (a second ``seen`` and ``queue``) are scratch for
+    ``_none_uncontested``: once the first lesser target is known, it may prove
+    that no candidate within the horizon is uncontested, without searching
+    out to it.
+    """
+    energy = (battery, cost, floor, best_cost, budget)
     steps = (-stride, stride, 1, -1)
     best1 = -1
     best2 = -1
@@ -172,7 +181,10 @@ def _search(
                     horizon, kept_count = _uncontested_horizon(
                         candidate, listed, start, stride, others_r, others_c, margin, kept, home
                     )
-                    if d > horizon:
+                    if d > horizon or _none_uncontested(
+                        state, candidate, listed, start, stride, others_r, others_c, home,
+                        energy, found, spare, stamp,
+                    ):  # fmt: skip
                         return 1, v, kept_count
             elif best2 < 0:
                 best2 = v
@@ -180,13 +192,102 @@ def _search(
                     horizon, kept_count = _uncontested_horizon(
                         candidate, listed, start, stride, others_r, others_c, margin, kept, home
                     )
-                    if d > horizon:
+                    if d > horizon or _none_uncontested(
+                        state, candidate, listed, start, stride, others_r, others_c, home,
+                        energy, found, spare, stamp,
+                    ):  # fmt: skip
                         return 2, v, kept_count
     if best1 >= 0:
         return 1, best1, kept_count
     if best2 >= 0:
         return 2, best2, kept_count
     return -1, -1, kept_count
+
+
+@njit(cache=True, nogil=True)
+def _none_uncontested(
+    state: np.ndarray,
+    candidate: np.ndarray,
+    listed: np.ndarray,
+    start: int,
+    stride: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+    found: np.ndarray,
+    spare: tuple[np.ndarray, np.ndarray],
+    stamp: int,
+) -> bool:
+    """Is it certain that no candidate is uncontested (rank 0) for ``_search``?
+
+    A candidate is uncontested when its way from the start is no longer than
+    its distance to the nearest other agent. One pass lists the few for which
+    the lower bounds of ``_rivals_listed`` allow it (the ``listed`` cells
+    cover them all, as for the horizon), and a breadth-first search, bounded
+    to the cells on a way to one of them short enough, tells whether any is
+    (False; also when there are too many to list). ``spare``: a ``seen`` and
+    a ``queue`` of its own, as the search is left as it stands, to go on
+    with when this fails.
+    """
+    count = _rivals_listed(
+        candidate, listed, start, -1, UNREACHED, UNREACHED, stride, others_r, others_c,
+        home, energy, found,
+    )  # fmt: skip
+    if count == found.size:
+        return False
+    if count == 0:
+        return True
+    battery, cost, floor, _, _ = energy
+    targets = found[:count]
+    bounds = np.empty(count, dtype=np.int64)
+    for i in range(count):
+        t = targets[i]
+        bounds[i] = nearest_manhattan(others_r, others_c, t // stride - 1, t % stride - 1)
+    seen, queue = spare
+    steps = (-stride, stride, 1, -1)
+    toward = 0
+    seen[start] = stamp
+    queue[0] = start
+    head = 0
+    tail = 1
+    level_end = 1
+    distance = 0
+    while head < tail:
+        if head == level_end:
+            level_end = tail
+            distance += 1
+        u = queue[head]
+        head += 1
+        d = distance + 1
+        for k in range(4):
+            v = u + steps[k]
+            if state[v] != _FREE or seen[v] == stamp:
+                continue
+            r = v // stride
+            c = v % stride
+            within = False
+            for i in range(count):
+                j = toward + i
+                if j >= count:
+                    j -= count
+                t = targets[j]
+                apart = max(abs(r - t // stride) + abs(c - t % stride), abs(home[v] - home[t]))
+                if d + apart <= bounds[j]:
+                    toward = j
+                    within = True
+                    break
+            if not within:
+                continue
+            seen[v] = stamp
+            queue[tail] = v
+            tail += 1
+            if candidate[v] == 0 or battery - cost * (d + home[v]) < floor:
+                continue
+            for i in range(count):
+                if targets[i] == v and d <= bounds[i]:
+                    return False
+    return True
 
 
 @njit(cache=True, nogil=True)
@@ -777,6 +878,8 @@ class TargetSearch:
         #: Candidates that might outrank the target on the way (``_confirm``),
         #: with a place for the target.
         self._rivals = np.zeros(self.RIVALS + 1, dtype=np.int64)
+        #: A second ``seen`` and ``queue``, for ``_search``.
+        self._spare = (np.zeros(size, dtype=np.int32), np.zeros(size, dtype=np.int32))
         self._pool_mask = np.zeros(size, dtype=np.uint8)
         self._blocked = np.zeros(size, dtype=np.uint8)
         self.home = np.frombuffer(belief.charger_dist, dtype=np.int32)
@@ -1083,6 +1186,8 @@ class TargetSearch:
                 self.stamp,
                 self.parent,
                 self.queue,
+                self._rivals[:-1],
+                self._spare,
             )
         finally:
             mask[claimed] = saved

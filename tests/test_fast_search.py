@@ -15,6 +15,7 @@ from planner import fast_search
 from planner.belief import UNREACHED, MapBelief
 from planner.fast_search import HorizonMemo, TargetSearch, Team, _uncontested_horizon
 from planner.grid import CellState
+from planner.paths import bfs_distances
 from sitl_mock import mapgen
 from tests.checks import make_mission
 
@@ -376,6 +377,46 @@ def test_targets_as_far_as_the_bound_are_found_as_breadth_first(
         path = search._unwind(start, found[1]) if found[1] >= 0 else None
         results.append((found, path))
     assert results[0] == results[1]
+
+
+@settings(max_examples=200, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), agents=st.integers(1, 8))
+def test_none_uncontested_only_when_none_is(seed: int, agents: int) -> None:
+    """The proof that no candidate is uncontested holds by the true distances: no
+    candidate the agent can afford is as near to it as to every other agent;
+    when it fails, one is (or there were too many to look at)."""
+    rng = np.random.default_rng(seed)
+    belief, walls = _swept_map(rng, seed, rng.uniform(0.3, 0.99))
+    search = TargetSearch(belief)
+    stride = belief.stride
+    free = np.argwhere(~walls)
+    picks = free[rng.integers(0, len(free), agents + 1)]
+    start = belief.index((int(picks[0, 0]), int(picks[0, 1])))
+    others = (picks[1:, 0].astype(np.int64), picks[1:, 1].astype(np.int64))
+    battery, cost = float(rng.uniform(20.0, 100.0)), float(rng.choice([0.0, 0.5, 1.0]))
+    energy = (battery, cost, 20.0, 0.5, float(rng.choice([30.0, 80.0])))
+    listed = search.uncovered_list[: belief.uncovered_count]
+    found = search._rivals[:-1]
+    search.stamp += 1
+    proved = fast_search._none_uncontested(
+        search.state, search.candidate, listed, start, stride, *others, search.home,
+        energy, found, search._spare, search.stamp,
+    )  # fmt: skip
+    distance = bfs_distances(belief, start)
+    uncontested = []
+    for v in belief.uncovered:
+        back, d = int(search.home[v]), distance.get(v)
+        if d is None or back >= UNREACHED or 2.0 * back * 0.5 > energy[4]:
+            continue
+        if battery - cost * (d + back) < 20.0:
+            continue
+        r, c = belief.cell(v)
+        if min(abs(r - others[0]) + abs(c - others[1])) >= d:
+            uncontested.append(v)
+    if proved:
+        assert uncontested == []
+    else:
+        assert uncontested or belief.uncovered_count >= found.size
 
 
 def test_a_candidate_reached_first_is_taken_only_if_affordable_there() -> None:
