@@ -115,15 +115,21 @@ def _search(
     parent: np.ndarray,
     queue: np.ndarray,
     found: np.ndarray,
-    spare: tuple[np.ndarray, np.ndarray],
+    spare: tuple[np.ndarray, np.ndarray, np.ndarray],
+    everyone: np.ndarray,
 ) -> tuple[int, int, int]:
     """Returns (rank, cell) of the best target, or (-1, -1), and the count of
     cells ``_uncontested_horizon`` kept (-1 if it did not keep any).
 
-    ``found`` and ``spare`` (a second ``seen`` and ``queue``) are scratch for
-    ``_none_uncontested``: once the first lesser target is known, it may prove
-    that no candidate within the horizon is uncontested, without searching
-    out to it.
+    ``found`` and ``spare`` (a second ``seen``, ``queue`` and ``parent``, whose
+    marks are ``8 * stamp`` and up, one for each search there) are scratch
+    for the shortcuts: once the first lesser target is known,
+    ``_none_uncontested`` may prove that no candidate within the horizon is
+    uncontested, without searching out to it; and when the search has gone
+    far without finding any target but those left to others (in a crowd),
+    ``_first_lesser`` may find the first lesser one directly. ``everyone``:
+    every candidate (``listed`` may be a shortlist of those that may be
+    uncontested).
     """
     energy = (battery, cost, floor, best_cost, budget)
     steps = (-stride, stride, 1, -1)
@@ -142,12 +148,36 @@ def _search(
     # the cells one move farther start in the queue.
     level_end = 1
     distance = 0
+    jumped = False
     while head < tail:
         if head == level_end:
             level_end = tail
             distance += 1
             if distance + 1 > horizon and (best1 >= 0 or (hold == 0 and best2 >= 0)):
                 break
+            if not jumped and best1 < 0 and hold > 0 and tail > _JUMP_AFTER:
+                jumped = True
+                rank, v, d = _first_lesser(
+                    state, candidate, everyone, start, stride, hold, others_r, others_c,
+                    home, energy, found, spare, 8 * stamp,
+                )  # fmt: skip
+                if rank >= 0:
+                    ours = spare[2]
+                    w = v
+                    while w != start:  # the way there, as this search would leave it
+                        parent[w] = ours[w]
+                        w = ours[w]
+                    if rank == 0:
+                        return 0, v, kept_count
+                    horizon, kept_count = _uncontested_horizon(
+                        candidate, listed, start, stride, others_r, others_c, margin, kept, home
+                    )
+                    if d > horizon or _none_uncontested(
+                        state, candidate, listed, start, stride, others_r, others_c, home,
+                        energy, found, spare, 8 * stamp + _JUMP_TRIES,
+                    ):  # fmt: skip
+                        return 1, v, kept_count
+                    # Not proved: search on, as without the shortcut (and find it again).
         u = queue[head]
         head += 1
         d = distance + 1
@@ -183,7 +213,7 @@ def _search(
                     )
                     if d > horizon or _none_uncontested(
                         state, candidate, listed, start, stride, others_r, others_c, home,
-                        energy, found, spare, stamp,
+                        energy, found, spare, 8 * stamp + _JUMP_TRIES + 1,
                     ):  # fmt: skip
                         return 1, v, kept_count
             elif best2 < 0:
@@ -194,7 +224,7 @@ def _search(
                     )
                     if d > horizon or _none_uncontested(
                         state, candidate, listed, start, stride, others_r, others_c, home,
-                        energy, found, spare, stamp,
+                        energy, found, spare, 8 * stamp + _JUMP_TRIES + 1,
                     ):  # fmt: skip
                         return 2, v, kept_count
     if best1 >= 0:
@@ -202,6 +232,90 @@ def _search(
     if best2 >= 0:
         return 2, best2, kept_count
     return -1, -1, kept_count
+
+
+#: Cells a target search reaches, with no target found but those left to
+#: others, before it tries ``_first_lesser``.
+_JUMP_AFTER = 4096
+#: Bounds ``_first_lesser`` tries before leaving it to the search.
+_JUMP_TRIES = 4
+
+
+@njit(cache=True, nogil=True)
+def _first_lesser(
+    state: np.ndarray,
+    candidate: np.ndarray,
+    everyone: np.ndarray,
+    start: int,
+    stride: int,
+    hold: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+    found: np.ndarray,
+    spare: tuple[np.ndarray, np.ndarray, np.ndarray],
+    mark: int,
+) -> tuple[int, int, int]:
+    """The first candidate ``_search`` reaches that ranks 1 or better (within
+    ``hold`` of no other agent nearer to it, or uncontested) as (rank, cell,
+    distance); (-1, -1, -1) when it is left to the search. The way there is
+    left in ``spare``'s ``parent``; its ``seen`` marked with ``mark`` to
+    ``mark + _JUMP_TRIES - 1``.
+
+    In a crowd every candidate near the agent is left to another, and the
+    search reaches a great part of the map before it finds one that is not,
+    although most of the map's candidates are not (they lie beyond the
+    crowd). Their lower bounds (``_rivals_listed``) are cheap: the least of
+    them, ``B``, among those that may rank so, is where the first can be.
+    A search bounded to the ways to the ones within a bound (``_first_among``)
+    finds the first of them within it, in the search's order, and is the
+    search's answer: any other that is nearer is within the bound too. The
+    bound widens from ``B`` until one is found (on open maps, nearly always at
+    ``B``) or the tries run out, or too many lie within it to list.
+    """
+    seen, queue, parent = spare
+    limit = hold + 1
+    r0 = start // stride
+    c0 = start % stride
+    h0 = home[start]
+    closer = 0
+    least = UNREACHED
+    for k in range(everyone.size):
+        v = everyone[k]
+        if candidate[v] == 0:
+            continue
+        mine = max(abs(v // stride - r0) + abs(v % stride - c0), abs(home[v] - h0))
+        if mine >= least:
+            continue
+        closer = _may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
+        if closer < 0:
+            least = mine
+            closer = 0
+    if least == UNREACHED:
+        return -1, -1, -1
+    slack = 0
+    for attempt in range(_JUMP_TRIES):
+        bound = least + slack
+        count = _rivals_listed(
+            candidate, everyone, start, -1, bound, limit, stride, others_r, others_c,
+            home, energy, found,
+        )  # fmt: skip
+        if count == found.size:
+            return -1, -1, -1
+        rank, cell = _first_among(
+            state, candidate, found[:count], start, stride, bound, 1, hold,
+            others_r, others_c, home, energy, seen, mark + attempt, parent, queue,
+        )  # fmt: skip
+        if rank >= 0:
+            d = 0
+            w = cell
+            while w != start:
+                w = parent[w]
+                d += 1
+            return rank, cell, d
+        slack = 2 * slack + 1
+    return -1, -1, -1
 
 
 @njit(cache=True, nogil=True)
@@ -216,7 +330,7 @@ def _none_uncontested(
     home: np.ndarray,
     energy: tuple[float, float, float, float, float],
     found: np.ndarray,
-    spare: tuple[np.ndarray, np.ndarray],
+    spare: tuple[np.ndarray, np.ndarray, np.ndarray],
     stamp: int,
 ) -> bool:
     """Is it certain that no candidate is uncontested (rank 0) for ``_search``?
@@ -227,8 +341,8 @@ def _none_uncontested(
     cover them all, as for the horizon), and a breadth-first search, bounded
     to the cells on a way to one of them short enough, tells whether any is
     (False; also when there are too many to list). ``spare``: a ``seen`` and
-    a ``queue`` of its own, as the search is left as it stands, to go on
-    with when this fails.
+    a ``queue`` of its own (and a ``parent`` it does not use), as the search
+    is left as it stands, to go on with when this fails.
     """
     count = _rivals_listed(
         candidate, listed, start, -1, UNREACHED, UNREACHED, stride, others_r, others_c,
@@ -244,7 +358,7 @@ def _none_uncontested(
     for i in range(count):
         t = targets[i]
         bounds[i] = nearest_manhattan(others_r, others_c, t // stride - 1, t % stride - 1)
-    seen, queue = spare
+    seen, queue, _ = spare
     steps = (-stride, stride, 1, -1)
     toward = 0
     seen[start] = stamp
@@ -878,8 +992,8 @@ class TargetSearch:
         #: Candidates that might outrank the target on the way (``_confirm``),
         #: with a place for the target.
         self._rivals = np.zeros(self.RIVALS + 1, dtype=np.int64)
-        #: A second ``seen`` and ``queue``, for ``_search``.
-        self._spare = (np.zeros(size, dtype=np.int32), np.zeros(size, dtype=np.int32))
+        #: A second ``seen``, ``queue`` and ``parent``, for ``_search``.
+        self._spare = tuple(np.zeros(size, dtype=np.int32) for _ in range(3))
         self._pool_mask = np.zeros(size, dtype=np.uint8)
         self._blocked = np.zeros(size, dtype=np.uint8)
         self.home = np.frombuffer(belief.charger_dist, dtype=np.int32)
@@ -1188,6 +1302,7 @@ class TargetSearch:
                 self.queue,
                 self._rivals[:-1],
                 self._spare,
+                self.uncovered_list[: self.belief.uncovered_count] if pool is None else listed,
             )
         finally:
             mask[claimed] = saved

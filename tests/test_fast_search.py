@@ -419,6 +419,146 @@ def test_none_uncontested_only_when_none_is(seed: int, agents: int) -> None:
         assert uncontested or belief.uncovered_count >= found.size
 
 
+def _breadth_first(belief: MapBelief, start: int) -> tuple[list[int], dict[int, int]]:
+    """Every known free cell reached from ``start``, in the order the compiled
+    searches reach them (N, S, E, W), and the parent of each."""
+    order, parent = [start], {start: start}
+    for u in order:
+        for step in belief.steps:
+            v = u + step
+            if belief.state[v] == int(CellState.FREE) and v not in parent:
+                parent[v] = u
+                order.append(v)
+    return order, parent
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    agents=st.integers(1, 12),
+    hold=st.sampled_from([1, 2, 5]),
+)
+def test_first_lesser_is_the_first_the_search_reaches(seed: int, agents: int, hold: int) -> None:
+    """The first candidate that ranks 1 or better, found from the lower bounds
+    without searching the map around the agent, is the first of them a
+    breadth-first search reaches, at its distance, by its path."""
+    rng = np.random.default_rng(seed)
+    belief, walls = _swept_map(rng, seed, rng.uniform(0.0, 0.95))
+    search = TargetSearch(belief)
+    free = np.argwhere(~walls)
+    picks = free[rng.integers(0, len(free), agents + 1)]
+    start = belief.index((int(picks[0, 0]), int(picks[0, 1])))
+    others = (picks[1:, 0].astype(np.int64), picks[1:, 1].astype(np.int64))
+    battery, cost = float(rng.uniform(20.0, 100.0)), float(rng.choice([0.0, 0.5, 1.0]))
+    budget = float(rng.choice([30.0, 80.0]))
+    energy = (battery, cost, 20.0, 0.5, budget)
+    everyone = search.uncovered_list[: belief.uncovered_count]
+    roomy = np.zeros(len(belief.state), dtype=np.int64)  # never too many to list
+    search.stamp += 1
+    rank, cell, d = fast_search._first_lesser(
+        search.state, search.candidate, everyone, start, belief.stride, hold, *others,
+        search.home, energy, roomy, search._spare, 8 * search.stamp,
+    )  # fmt: skip
+    order, parent = _breadth_first(belief, start)
+    depth = {start: 0}
+    for v in order[1:]:
+        depth[v] = depth[parent[v]] + 1
+
+    def near(v: int) -> int:
+        r, c = belief.cell(v)
+        return int(min(abs(r - others[0]) + abs(c - others[1])))
+
+    def in_range(v: int, moves: int) -> bool:
+        back = int(search.home[v])
+        return 2.0 * back * 0.5 <= budget and battery - cost * (moves + back) >= 20.0
+
+    expected = None
+    for v in order[1:]:
+        uncovered = belief.uncovered_mask[v] and in_range(v, depth[v])
+        if uncovered and near(v) >= min(depth[v], hold + 1):
+            expected = (0 if near(v) >= depth[v] else 1, v, depth[v])
+            break
+    if rank < 0:
+        # Left to the search: only when none ranks so, or the first lies beyond
+        # the widened bounds (the least lower bound of those that may, plus 7).
+        r0, c0 = belief.cell(start)
+        bounds = []
+        for v in belief.uncovered:
+            r, c = belief.cell(v)
+            mine = max(abs(r - r0) + abs(c - c0), abs(int(search.home[v] - search.home[start])))
+            if in_range(v, mine) and near(v) >= min(mine, hold + 1):
+                bounds.append(mine)
+        assert expected is None or expected[2] > min(bounds) + 7
+        return
+    assert (rank, cell, d) == expected
+    way, v = [], cell
+    while v != start:
+        way.append(v)
+        v = int(search._spare[2][v])
+    assert way == _unwound(parent, start, cell)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), agents=st.integers(5, 40), hold=st.sampled_from([2, 5]))
+def test_a_search_through_a_crowd_ranks_as_breadth_first(seed: int, agents: int, hold: int) -> None:
+    """On a map large enough for the search to jump past a crowd (every candidate
+    near the agent left to another), it returns what a plain breadth-first
+    ranking returns: the first uncontested candidate reached, else the first
+    of the next rank if none is uncontested, by the same path."""
+    rng = np.random.default_rng(seed)
+    side = 140
+    walls = rng.random((side, side)) < rng.uniform(0.0, 0.1)
+    belief = MapBelief((side, side), (0, 0))
+    walls[0, 0] = False
+    for r, c in zip(*np.nonzero(~walls), strict=True):
+        belief.mark_free(belief.index((int(r), int(c))))
+    centre = np.array([side // 2, side // 2])
+    free = np.argwhere(~walls)
+    crowd = free[np.abs(free - centre).sum(axis=1) < 50]
+    picks = crowd[rng.integers(0, len(crowd), agents + 1)]
+    picks[0] = crowd[np.abs(crowd - centre).sum(axis=1).argmin()]
+    start = belief.index((int(picks[0, 0]), int(picks[0, 1])))
+    others = (picks[1:, 0].astype(np.int64), picks[1:, 1].astype(np.int64))
+    # Swept around the middle but beside the other agents (left to them), and
+    # here and there beyond them.
+    for i in list(belief.uncovered):
+        r, c = belief.cell(i)
+        beside = int(min(abs(r - others[0]) + abs(c - others[1]))) <= 2
+        inside = abs(r - centre[0]) + abs(c - centre[1]) < 60
+        if (inside and not beside) or (not inside and rng.random() < 0.9):
+            belief.cover((r, c), 1)
+    search = TargetSearch(belief)
+    found = search.run(start, 100.0, 0.1, 20.0, 0.1, 80.0, others, hold, [])
+    order, parent = _breadth_first(belief, start)
+    depth = {start: 0}
+    best: dict[int, int] = {}
+    for v in order[1:]:
+        depth[v] = depth[parent[v]] + 1
+        back = int(search.home[v])
+        if not belief.uncovered_mask[v] or 100.0 - 0.1 * (depth[v] + back) < 20.0:
+            continue
+        r, c = belief.cell(v)
+        near = int(min(abs(r - others[0]) + abs(c - others[1])))
+        rank = 0 if near >= depth[v] else 1 if near >= min(depth[v], hold + 1) else 2
+        best.setdefault(rank, v)
+    if not best:
+        assert found is None
+        return
+    rank = min(best)
+    assert found is not None
+    assert found[:2] == (rank, best[rank])
+    assert found[2] == _unwound(parent, start, best[rank])[::-1]
+
+
+def _unwound(parent: dict[int, int], start: int, goal: int) -> list[int]:
+    """The path to ``goal`` in ``parent``, goal first, the start left out."""
+    way, v = [], goal
+    while v != start:
+        way.append(v)
+        v = parent[v]
+    return way
+
+
 def test_a_candidate_reached_first_is_taken_only_if_affordable_there() -> None:
     """A candidate two cells away behind a wall is reached before the target on the
     way, and could be afforded were it as near as it looks, but not by the way
