@@ -973,6 +973,7 @@ class TargetSearch:
 
     #: Most candidates ``_confirm`` looks at one by one.
     RIVALS = 128
+    FEW = 512
     LIST_COST = 8
 
     def __init__(self, belief: MapBelief) -> None:
@@ -992,6 +993,8 @@ class TargetSearch:
         #: Candidates that might outrank the target on the way (``_confirm``),
         #: with a place for the target.
         self._rivals = np.zeros(self.RIVALS + 1, dtype=np.int64)
+        #: The candidates ``_search``'s shortcuts look at one by one (at most its size).
+        self._few = np.zeros(self.FEW, dtype=np.int64)
         #: A second ``seen``, ``queue`` and ``parent``, for ``_search``.
         self._spare = tuple(np.zeros(size, dtype=np.int32) for _ in range(3))
         self._pool_mask = np.zeros(size, dtype=np.uint8)
@@ -1300,7 +1303,7 @@ class TargetSearch:
                 self.stamp,
                 self.parent,
                 self.queue,
-                self._rivals[:-1],
+                self._few,
                 self._spare,
                 self.uncovered_list[: self.belief.uncovered_count] if pool is None else listed,
             )
