@@ -1096,15 +1096,19 @@ class TargetSearch:
         if rank > 0:
             # No candidate may be uncontested, however far. The search's horizon
             # pass (which also renews the memo's shortlist) finds none in Manhattan
-            # terms, or the stronger bound of ``_rivals_listed`` rules them out.
+            # terms, or the search's own proof (``_none_uncontested``) rules them out.
             horizon, kept = _uncontested_horizon(
                 candidate, listed, start, stride, rows, cols, margin, self._kept, home
             )
             if kept >= 0 and memo is not None:
                 memo.remember(self._kept[:kept], self.belief)
-            anywhere = (UNREACHED, UNREACHED, stride, rows, cols, home, energy, self._rivals)
-            if horizon >= 0 and _rivals_listed(candidate, listed, start, -1, *anywhere):
-                return None
+            if horizon >= 0:
+                self.stamp += 1
+                if not _none_uncontested(
+                    self.state, candidate, listed, start, stride, rows, cols, home, energy,
+                    self._few, self._spare, 8 * self.stamp,
+                ):  # fmt: skip
+                    return None
         test = (moves, limit, stride, rows, cols, home, energy, self._rivals[:-1])
         # A listed cell costs about LIST_COST cells of the square around the start
         # read row by row (its row and column are worked out by division; the
