@@ -16,6 +16,18 @@ import numpy as np
 from numba import njit
 
 from planner.belief import UNREACHED, MapBelief
+from planner.bounded_search import (
+    JUMP_AFTER,
+    JUMP_TRIES,
+    first_among,
+    first_lesser,
+    in_square,
+    nearest_manhattan,
+    none_between,
+    none_uncontested,
+    rivals_listed,
+    target_rank,
+)
 from planner.grid import CellState
 
 _FREE = int(CellState.FREE)
@@ -124,10 +136,10 @@ def _search(
     ``found`` and ``spare`` (a second ``seen``, ``queue`` and ``parent``, whose
     marks are ``8 * stamp`` and up, one for each search there) are scratch
     for the shortcuts: once the first lesser target is known,
-    ``_none_uncontested`` may prove that no candidate within the horizon is
+    ``none_uncontested`` may prove that no candidate within the horizon is
     uncontested, without searching out to it; and when the search has gone
     far without finding any target but those left to others (in a crowd),
-    ``_first_lesser`` may find the first lesser one directly. ``everyone``:
+    ``first_lesser`` may find the first lesser one directly. ``everyone``:
     every candidate (``listed`` may be a shortlist of those that may be
     uncontested).
     """
@@ -155,9 +167,9 @@ def _search(
             distance += 1
             if distance + 1 > horizon and (best1 >= 0 or (hold == 0 and best2 >= 0)):
                 break
-            if not jumped and best1 < 0 and hold > 0 and tail > _JUMP_AFTER:
+            if not jumped and best1 < 0 and hold > 0 and tail > JUMP_AFTER:
                 jumped = True
-                rank, v, d = _first_lesser(
+                rank, v, d = first_lesser(
                     state, candidate, everyone, start, stride, hold, others_r, others_c,
                     home, energy, found, spare, 8 * stamp,
                 )  # fmt: skip
@@ -172,9 +184,9 @@ def _search(
                     horizon, kept_count = _uncontested_horizon(
                         candidate, listed, start, stride, others_r, others_c, margin, kept, home
                     )
-                    if d > horizon or _none_uncontested(
+                    if d > horizon or none_uncontested(
                         state, candidate, listed, start, stride, others_r, others_c, home,
-                        energy, found, spare, 8 * stamp + _JUMP_TRIES,
+                        energy, found, spare, 8 * stamp + JUMP_TRIES,
                     ):  # fmt: skip
                         return 1, v, kept_count
                     # Not proved: search on, as without the shortcut (and find it again).
@@ -196,587 +208,34 @@ def _search(
                 continue  # out of range for every agent
             if back >= UNREACHED or battery - cost * (d + back) < floor:
                 continue  # cannot afford it
-            r = v // stride - 1
-            c = v % stride - 1
-            nearest_other = UNREACHED
-            for j in range(others_r.size):
-                m = abs(r - others_r[j]) + abs(c - others_c[j])
-                if m < nearest_other:
-                    nearest_other = m
-            if nearest_other >= d:
+            rank = target_rank(v, d, 2, hold, stride, others_r, others_c, home, energy)
+            if rank == 0:
                 return 0, v, kept_count
-            if hold > 0 and nearest_other >= min(d, hold + 1):
-                if best1 < 0:
-                    best1 = v
-                    horizon, kept_count = _uncontested_horizon(
-                        candidate, listed, start, stride, others_r, others_c, margin, kept, home
-                    )
-                    if d > horizon or _none_uncontested(
-                        state, candidate, listed, start, stride, others_r, others_c, home,
-                        energy, found, spare, 8 * stamp + _JUMP_TRIES + 1,
-                    ):  # fmt: skip
-                        return 1, v, kept_count
-            elif best2 < 0:
+            if rank == 1:
+                if best1 >= 0:
+                    continue
+                best1 = v
+            else:
+                if best2 >= 0:
+                    continue
                 best2 = v
-                if hold == 0:
-                    horizon, kept_count = _uncontested_horizon(
-                        candidate, listed, start, stride, others_r, others_c, margin, kept, home
-                    )
-                    if d > horizon or _none_uncontested(
-                        state, candidate, listed, start, stride, others_r, others_c, home,
-                        energy, found, spare, 8 * stamp + _JUMP_TRIES + 1,
-                    ):  # fmt: skip
-                        return 2, v, kept_count
+                if hold > 0:
+                    continue  # left to others: the answer only if nothing ranks better
+            # The first of the next rank: search on only as far as the horizon,
+            # or not at all when no candidate within it is uncontested.
+            horizon, kept_count = _uncontested_horizon(
+                candidate, listed, start, stride, others_r, others_c, margin, kept, home
+            )
+            if d > horizon or none_uncontested(
+                state, candidate, listed, start, stride, others_r, others_c, home,
+                energy, found, spare, 8 * stamp + JUMP_TRIES + 1,
+            ):  # fmt: skip
+                return rank, v, kept_count
     if best1 >= 0:
         return 1, best1, kept_count
     if best2 >= 0:
         return 2, best2, kept_count
     return -1, -1, kept_count
-
-
-#: Cells a target search reaches, with no target found but those left to
-#: others, before it tries ``_first_lesser``.
-_JUMP_AFTER = 4096
-#: Bounds ``_first_lesser`` tries before leaving it to the search.
-_JUMP_TRIES = 4
-
-
-@njit(cache=True, nogil=True)
-def _first_lesser(
-    state: np.ndarray,
-    candidate: np.ndarray,
-    everyone: np.ndarray,
-    start: int,
-    stride: int,
-    hold: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    home: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-    found: np.ndarray,
-    spare: tuple[np.ndarray, np.ndarray, np.ndarray],
-    mark: int,
-) -> tuple[int, int, int]:
-    """The first candidate ``_search`` reaches that ranks 1 or better (within
-    ``hold`` of no other agent nearer to it, or uncontested) as (rank, cell,
-    distance); (-1, -1, -1) when it is left to the search. The way there is
-    left in ``spare``'s ``parent``; its ``seen`` marked with ``mark`` to
-    ``mark + _JUMP_TRIES - 1``.
-
-    In a crowd every candidate near the agent is left to another, and the
-    search reaches a great part of the map before it finds one that is not,
-    although most of the map's candidates are not (they lie beyond the
-    crowd). Their lower bounds (``_rivals_listed``) are cheap: the least of
-    them, ``B``, among those that may rank so, is where the first can be.
-    A search bounded to the ways to the ones within a bound (``_first_among``)
-    finds the first of them within it, in the search's order, and is the
-    search's answer: any other that is nearer is within the bound too. The
-    bound widens from ``B`` until one is found (on open maps, nearly always at
-    ``B``) or the tries run out, or too many lie within it to list.
-    """
-    seen, queue, parent = spare
-    limit = hold + 1
-    r0 = start // stride
-    c0 = start % stride
-    h0 = home[start]
-    closer = 0
-    least = UNREACHED
-    for k in range(everyone.size):
-        v = everyone[k]
-        if candidate[v] == 0:
-            continue
-        mine = max(abs(v // stride - r0) + abs(v % stride - c0), abs(home[v] - h0))
-        if mine >= least:
-            continue
-        closer = _may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
-        if closer < 0:
-            least = mine
-            closer = 0
-    if least == UNREACHED:
-        return -1, -1, -1
-    slack = 0
-    for attempt in range(_JUMP_TRIES):
-        bound = least + slack
-        count = _rivals_listed(
-            candidate, everyone, start, -1, bound, limit, stride, others_r, others_c,
-            home, energy, found,
-        )  # fmt: skip
-        if count == found.size:
-            return -1, -1, -1
-        rank, cell = _first_among(
-            state, candidate, found[:count], start, stride, bound, 1, hold,
-            others_r, others_c, home, energy, seen, mark + attempt, parent, queue,
-        )  # fmt: skip
-        if rank >= 0:
-            d = 0
-            w = cell
-            while w != start:
-                w = parent[w]
-                d += 1
-            return rank, cell, d
-        slack = 2 * slack + 1
-    return -1, -1, -1
-
-
-@njit(cache=True, nogil=True)
-def _none_uncontested(
-    state: np.ndarray,
-    candidate: np.ndarray,
-    listed: np.ndarray,
-    start: int,
-    stride: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    home: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-    found: np.ndarray,
-    spare: tuple[np.ndarray, np.ndarray, np.ndarray],
-    stamp: int,
-) -> bool:
-    """Is it certain that no candidate is uncontested (rank 0) for ``_search``?
-
-    A candidate is uncontested when its way from the start is no longer than
-    its distance to the nearest other agent. One pass lists the few for which
-    the lower bounds of ``_rivals_listed`` allow it (the ``listed`` cells
-    cover them all, as for the horizon), and a breadth-first search, bounded
-    to the cells on a way to one of them short enough, tells whether any is
-    (False; also when there are too many to list). ``spare``: a ``seen`` and
-    a ``queue`` of its own (and a ``parent`` it does not use), as the search
-    is left as it stands, to go on with when this fails.
-    """
-    count = _rivals_listed(
-        candidate, listed, start, -1, UNREACHED, UNREACHED, stride, others_r, others_c,
-        home, energy, found,
-    )  # fmt: skip
-    if count == found.size:
-        return False
-    if count == 0:
-        return True
-    battery, cost, floor, _, _ = energy
-    targets = found[:count]
-    bounds = np.empty(count, dtype=np.int64)
-    for i in range(count):
-        t = targets[i]
-        bounds[i] = nearest_manhattan(others_r, others_c, t // stride - 1, t % stride - 1)
-    seen, queue, _ = spare
-    steps = (-stride, stride, 1, -1)
-    toward = 0
-    seen[start] = stamp
-    queue[0] = start
-    head = 0
-    tail = 1
-    level_end = 1
-    distance = 0
-    while head < tail:
-        if head == level_end:
-            level_end = tail
-            distance += 1
-        u = queue[head]
-        head += 1
-        d = distance + 1
-        for k in range(4):
-            v = u + steps[k]
-            if state[v] != _FREE or seen[v] == stamp:
-                continue
-            r = v // stride
-            c = v % stride
-            within = False
-            for i in range(count):
-                j = toward + i
-                if j >= count:
-                    j -= count
-                t = targets[j]
-                apart = max(abs(r - t // stride) + abs(c - t % stride), abs(home[v] - home[t]))
-                if d + apart <= bounds[j]:
-                    toward = j
-                    within = True
-                    break
-            if not within:
-                continue
-            seen[v] = stamp
-            queue[tail] = v
-            tail += 1
-            if candidate[v] == 0 or battery - cost * (d + home[v]) < floor:
-                continue
-            for i in range(count):
-                if targets[i] == v and d <= bounds[i]:
-                    return False
-    return True
-
-
-@njit(cache=True, nogil=True)
-def _may_rival(
-    v: int,
-    mine: int,
-    limit: int,
-    stride: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    closer: int,
-    home: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-) -> int:
-    """Could candidate ``v``, ``mine`` moves or more away, be a target that no
-    other agent is nearer to than ``min(its distance, limit)``? Not when
-    another agent is nearer than ``min(mine, limit)``: then the index of that
-    agent (ask about the next cell from there: neighbouring cells likely share
-    it). Not when it is out of range or cannot be afforded even at ``mine``
-    moves (``_search``'s tests, with ``energy`` its battery, cost, floor,
-    best_cost and budget): ``closer``. Else -1."""
-    bar = min(mine, limit)
-    r = v // stride - 1
-    c = v % stride - 1
-    n = others_r.size
-    for i in range(n):
-        j = closer + i
-        if j >= n:
-            j -= n
-        if abs(r - others_r[j]) + abs(c - others_c[j]) < bar:
-            return j
-    battery, cost, floor, best_cost, budget = energy
-    back = home[v]
-    if back >= UNREACHED or 2.0 * back * best_cost > budget:
-        return closer
-    if battery - cost * (mine + back) < floor:
-        return closer
-    return -1
-
-
-@njit(cache=True, nogil=True)
-def _rivals_listed(
-    candidate: np.ndarray,
-    listed: np.ndarray,
-    start: int,
-    goal: int,
-    reach: int,
-    limit: int,
-    stride: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    home: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-    found: np.ndarray,
-) -> int:
-    """The listed candidates but ``goal`` that may be within ``reach`` moves of
-    the start and ``_may_rival``: put in ``found``, and their count
-    (``found.size`` when there are more).
-
-    A path is at least as long as the Manhattan distance, and as the
-    difference of its ends' distances home (the charger as a landmark: the
-    stronger bound where walls make the way round long)."""
-    r0 = start // stride
-    c0 = start % stride
-    closer = 0
-    count = 0
-    for k in range(listed.size):
-        v = listed[k]
-        mine = abs(v // stride - r0) + abs(v % stride - c0)
-        if mine > reach or v == goal or candidate[v] == 0:
-            continue
-        mine = max(mine, abs(home[v] - home[start]))
-        if mine > reach:
-            continue
-        closer = _may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
-        if closer < 0:
-            if count == found.size:
-                return count
-            found[count] = v
-            count += 1
-            closer = 0
-    return count
-
-
-@njit(cache=True, nogil=True)
-def _in_square(candidate: np.ndarray, start: int, reach: int, stride: int, out: np.ndarray) -> int:
-    """The candidates within ``reach`` (Manhattan) of the start, read row by row
-    into ``out``; their count. Cheaper than passing over a long list of
-    uncovered cells when the square is the smaller."""
-    r0 = start // stride
-    c0 = start % stride
-    rows = candidate.size // stride
-    count = 0
-    for r in range(max(0, r0 - reach), min(rows, r0 + reach + 1)):
-        width = reach - abs(r - r0)
-        base = r * stride
-        for c in range(max(0, c0 - width), min(stride, c0 + width + 1)):
-            if candidate[base + c] != 0:
-                out[count] = base + c
-                count += 1
-    return count
-
-
-@njit(cache=True, nogil=True)
-def _first_among(
-    state: np.ndarray,
-    candidate: np.ndarray,
-    targets: np.ndarray,
-    start: int,
-    stride: int,
-    bound: int,
-    rank: int,
-    hold: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    home: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-    seen: np.ndarray,
-    stamp: int,
-    parent: np.ndarray,
-    queue: np.ndarray,
-) -> tuple[int, int]:
-    """``_search`` when only the ``targets`` (candidates in range, and reached
-    from home) can be what it returns, all within ``bound`` moves: the first
-    of them it reaches that the agent can afford and that ranks ``rank`` or
-    better, as (rank, cell), or (-1, -1); ``parent`` holds the path there.
-
-    When no target is nearer than ``bound`` by Manhattan distance (on open
-    maps, a transit's target and the rivals as far as it), the walk of
-    ``_first_tied`` finds it; else ``_first_reached``, breadth-first.
-    """
-    r0 = start // stride
-    c0 = start % stride
-    for i in range(targets.size):
-        t = targets[i]
-        if abs(t // stride - r0) + abs(t % stride - c0) < bound:
-            return _first_reached(
-                state, candidate, targets, start, stride, bound, rank, hold,
-                others_r, others_c, home, energy, seen, stamp, parent, queue,
-            )  # fmt: skip
-    return _first_tied(
-        state, candidate, targets, start, stride, bound, rank, hold,
-        others_r, others_c, home, energy, seen, stamp, parent, queue,
-    )  # fmt: skip
-
-
-@njit(cache=True, nogil=True)
-def _target_rank(
-    v: int,
-    d: int,
-    rank: int,
-    hold: int,
-    stride: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    home: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-) -> int:
-    """The rank of candidate ``v`` reached at ``d`` moves, as ``_search`` ranks it,
-    or -1 when it is worse than ``rank`` or the agent cannot afford it there."""
-    battery, cost, floor, _, _ = energy
-    if battery - cost * (d + home[v]) < floor:
-        return -1
-    r = v // stride - 1
-    c = v % stride - 1
-    near = UNREACHED
-    for j in range(others_r.size):
-        m = abs(r - others_r[j]) + abs(c - others_c[j])
-        if m < near:
-            near = m
-    if near >= d:
-        found = 0
-    elif hold > 0 and near >= min(d, hold + 1):
-        found = 1
-    else:
-        found = 2
-    return found if found <= rank else -1
-
-
-@njit(cache=True, nogil=True)
-def _first_tied(
-    state: np.ndarray,
-    candidate: np.ndarray,
-    targets: np.ndarray,
-    start: int,
-    stride: int,
-    bound: int,
-    rank: int,
-    hold: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    home: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-    seen: np.ndarray,
-    stamp: int,
-    parent: np.ndarray,
-    stack: np.ndarray,
-) -> tuple[int, int]:
-    """``_first_reached`` when no target is nearer than ``bound`` by Manhattan
-    distance, without visiting the cells between.
-
-    The breadth-first search reaches the cells one move farther in the order
-    of their parents, and a parent's in the order N, S, E, W: it reaches a
-    cell first by the shortest way whose moves come first in that order, and
-    of the targets at one distance, first the one at the end of the first of
-    these ways. A target can then only be reached at ``bound`` moves, by a
-    way every move of which brings it one nearer (Manhattan), so on such a
-    way each cell's distance from the start is its Manhattan distance. A
-    depth-first walk trying N, S, E, W in turn, over the cells the breadth-first
-    search would admit that lie on such a way to a target it would take, and
-    never twice over a cell (one that led nowhere leads nowhere by any way
-    there), finds the first of these ways: the same target, by the same path.
-    """
-    r0 = start // stride
-    c0 = start % stride
-    n = targets.size
-    # The targets that may be taken (reached at ``bound`` moves, it is their rank there).
-    taken = np.empty(n, dtype=np.int64)
-    ranks = np.empty(n, dtype=np.int64)
-    count = 0
-    for i in range(n):
-        t = targets[i]
-        if candidate[t] == 0 or abs(t // stride - r0) + abs(t % stride - c0) != bound:
-            continue
-        found = _target_rank(t, bound, rank, hold, stride, others_r, others_c, home, energy)
-        if found >= 0:
-            taken[count] = t
-            ranks[count] = found
-            count += 1
-    if count == 0:
-        return -1, -1
-    steps = (-stride, stride, 1, -1)
-    tried = np.zeros(bound + 1, dtype=np.int8)  # the moves tried from each cell of the walk
-    seen[start] = stamp
-    stack[0] = start
-    depth = 0
-    while depth >= 0:
-        k = tried[depth]
-        if k == 4:
-            depth -= 1  # led nowhere (and stays seen)
-            continue
-        tried[depth] = k + 1
-        u = stack[depth]
-        v = u + steps[k]
-        if state[v] != _FREE or seen[v] == stamp:
-            continue
-        d = depth + 1
-        r = v // stride
-        c = v % stride
-        on_way = -1
-        for i in range(count):
-            t = taken[i]
-            if d + abs(r - t // stride) + abs(c - t % stride) == bound:
-                on_way = i
-                break
-        if on_way < 0:
-            continue
-        within = False  # as ``_first_reached`` admits cells, by every target
-        for i in range(n):
-            t = targets[i]
-            if d + max(abs(r - t // stride) + abs(c - t % stride), abs(home[v] - home[t])) <= bound:
-                within = True
-                break
-        if not within:
-            continue
-        seen[v] = stamp
-        parent[v] = u
-        if d == bound:
-            return ranks[on_way], v  # on the way to it and as far: the target itself
-        depth = d
-        stack[depth] = v
-        tried[depth] = 0
-    return -1, -1
-
-
-@njit(cache=True, nogil=True)
-def _first_reached(
-    state: np.ndarray,
-    candidate: np.ndarray,
-    targets: np.ndarray,
-    start: int,
-    stride: int,
-    bound: int,
-    rank: int,
-    hold: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    home: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-    seen: np.ndarray,
-    stamp: int,
-    parent: np.ndarray,
-    queue: np.ndarray,
-) -> tuple[int, int]:
-    """``_first_among``, breadth-first from the start in ``_search``'s order, over the cells whose
-    distance plus a lower bound of the way on to some target (as in
-    ``_rivals_listed``) is at most ``bound``: either bound changes by at most
-    one a move, so, as in ``_path_search``, the targets are reached in the
-    same order, from the same parents, as by the search over the whole map.
-    """
-    steps = (-stride, stride, 1, -1)
-    n = targets.size
-    toward = 0
-    seen[start] = stamp
-    queue[0] = start
-    head = 0
-    tail = 1
-    level_end = 1
-    distance = 0
-    while head < tail:
-        if head == level_end:
-            level_end = tail
-            distance += 1
-        u = queue[head]
-        head += 1
-        d = distance + 1
-        for k in range(4):
-            v = u + steps[k]
-            if state[v] != _FREE or seen[v] == stamp:
-                continue
-            r = v // stride
-            c = v % stride
-            within = False
-            for i in range(n):
-                j = toward + i
-                if j >= n:
-                    j -= n
-                t = targets[j]
-                apart = max(abs(r - t // stride) + abs(c - t % stride), abs(home[v] - home[t]))
-                if d + apart <= bound:
-                    toward = j  # neighbouring cells likely lie on the way to it too
-                    within = True
-                    break
-            if not within:
-                continue
-            seen[v] = stamp
-            parent[v] = u
-            queue[tail] = v
-            tail += 1
-            if candidate[v] == 0:
-                continue
-            target = False
-            for i in range(n):
-                if targets[i] == v:
-                    target = True
-                    break
-            if not target:
-                continue
-            found = _target_rank(v, d, rank, hold, stride, others_r, others_c, home, energy)
-            if found >= 0:
-                return found, v
-    return -1, -1
-
-
-@njit(cache=True, nogil=True)
-def _none_between(
-    cells: np.ndarray, start: int, goal: int, moves: int, stride: int, home: np.ndarray
-) -> bool:
-    """Does no way from ``start`` to ``goal`` through any of ``cells`` come to less
-    than ``moves``, by the lower bounds of ``_rivals_listed``?"""
-    r0 = start // stride
-    c0 = start % stride
-    r1 = goal // stride
-    c1 = goal % stride
-    h0 = home[start]
-    h1 = home[goal]
-    for k in range(cells.size):
-        v = cells[k]
-        r = v // stride
-        c = v % stride
-        there = max(abs(r - r0) + abs(c - c0), abs(home[v] - h0))
-        on = max(abs(r - r1) + abs(c - c1), abs(home[v] - h1))
-        if there + on < moves:
-            return False
-    return True
 
 
 @njit(cache=True, nogil=True)
@@ -848,19 +307,6 @@ def _unwind(parent: np.ndarray, start: int, goal: int, way: np.ndarray) -> int:
         length += 1
         v = parent[v]
     return length
-
-
-@njit(cache=True, nogil=True)
-def nearest_manhattan(rows: np.ndarray, cols: np.ndarray, r: int, c: int) -> int:
-    """The Manhattan distance from ``(r, c)`` to the nearest of the cells (0 if none)."""
-    if rows.size == 0:
-        return 0
-    nearest = UNREACHED
-    for j in range(rows.size):
-        m = abs(r - rows[j]) + abs(c - cols[j])
-        if m < nearest:
-            nearest = m
-    return nearest
 
 
 class Team:
@@ -1063,9 +509,9 @@ class TargetSearch:
         or, when there is none, the first of the next rank. ``goal`` ranks so
         at the end of ``way``, so the search returns it or a candidate it
         reaches no later. One pass over the uncovered cells within the way's
-        length finds the few that might (``_rivals_listed``); when ``goal`` is
+        length finds the few that might (``rivals_listed``); when ``goal`` is
         contested, none anywhere may be uncontested (the horizon pass). Then
-        a search bounded to the ways to those few (``_first_among``) finds
+        a search bounded to the ways to those few (``first_among``) finds
         what the search over the map around the agent out to the target
         would, as it would at every step of a long transit. With no rival,
         ``way`` is the answer as it stands if it is still a shortest way
@@ -1096,7 +542,7 @@ class TargetSearch:
         if rank > 0:
             # No candidate may be uncontested, however far. The search's horizon
             # pass (which also renews the memo's shortlist) finds none in Manhattan
-            # terms, or the search's own proof (``_none_uncontested``) rules them out.
+            # terms, or the search's own proof (``none_uncontested``) rules them out.
             horizon, kept = _uncontested_horizon(
                 candidate, listed, start, stride, rows, cols, margin, self._kept, home
             )
@@ -1104,7 +550,7 @@ class TargetSearch:
                 memo.remember(self._kept[:kept], self.belief)
             if horizon >= 0:
                 self.stamp += 1
-                if not _none_uncontested(
+                if not none_uncontested(
                     self.state, candidate, listed, start, stride, rows, cols, home, energy,
                     self._few, self._spare, 8 * self.stamp,
                 ):  # fmt: skip
@@ -1116,13 +562,13 @@ class TargetSearch:
         square = 2 * moves * moves
         if rank == 0 and listed.size * self.LIST_COST < square:
             # Cells off ``listed`` are surely contested: rank 0 needs only these.
-            count = _rivals_listed(candidate, listed, start, goal, *test)
+            count = rivals_listed(candidate, listed, start, goal, *test)
         elif self.belief.uncovered_count * self.LIST_COST < square:
             full = self.uncovered_list[: self.belief.uncovered_count]
-            count = _rivals_listed(candidate, full, start, goal, *test)
+            count = rivals_listed(candidate, full, start, goal, *test)
         else:
-            near = self._near[: _in_square(candidate, start, moves, stride, self._near)]
-            count = _rivals_listed(candidate, near, start, goal, *test)
+            near = self._near[: in_square(candidate, start, moves, stride, self._near)]
+            count = rivals_listed(candidate, near, start, goal, *test)
         if count == self.RIVALS:
             return None  # too many to look at one by one: the search is as quick
         if count == 0 and self._still_shortest(start, goal, moves, known_at):
@@ -1142,9 +588,9 @@ class TargetSearch:
         others: tuple[np.ndarray, np.ndarray],
         energy: tuple[float, float, float, float, float],
     ) -> tuple[int, int, list[int]] | None:
-        """``_first_among`` with this search's scratch arrays: (rank, cell, path)."""
+        """``first_among`` with this search's scratch arrays: (rank, cell, path)."""
         self.stamp += 1
-        rank, cell = _first_among(
+        rank, cell = first_among(
             self.state,
             self.candidate,
             targets,
@@ -1185,9 +631,9 @@ class TargetSearch:
         candidate, full = self.candidate, self.uncovered_list[: self.belief.uncovered_count]
         found = self._rivals[:-1]
         team = (self.belief.stride, others[0], others[1], self.home, energy, found)
-        if _rivals_listed(candidate, full, start, -1, UNREACHED, hold + 1, *team):
+        if rivals_listed(candidate, full, start, -1, UNREACHED, hold + 1, *team):
             return False, None  # some may rank better
-        count = _rivals_listed(candidate, full, start, -1, UNREACHED, 0, *team)
+        count = rivals_listed(candidate, full, start, -1, UNREACHED, 0, *team)
         if count == self.RIVALS:
             return False, None
         targets = found[:count]
@@ -1210,7 +656,7 @@ class TargetSearch:
         the cells that may have shortened a way since (``MapBelief.shortcuts``:
         every other new cell leaves the distances between the cells known
         before as they were) lies where a shorter way could pass: by the
-        bounds of ``_rivals_listed`` (in rooms, many such cells lie within the
+        bounds of ``rivals_listed`` (in rooms, many such cells lie within the
         Manhattan bound of a way round a wall, but their distance home, as
         known now, tells that they are too far from one end or the other).
         """
@@ -1225,7 +671,7 @@ class TargetSearch:
         if blocked != belief.blocked_count:
             return False
         new = self.shortcuts[since : belief.shortcut_count]
-        return _none_between(new, start, goal, moves, stride, self.home)
+        return none_between(new, start, goal, moves, stride, self.home)
 
     def run(
         self,

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gcs.simulate import simulate
-from planner import fast_search
+from planner import bounded_search, fast_search
 from planner.belief import UNREACHED, MapBelief
 from planner.fast_search import HorizonMemo, TargetSearch, Team, _uncontested_horizon
 from planner.grid import CellState
@@ -368,7 +368,7 @@ def test_targets_as_far_as_the_bound_are_found_as_breadth_first(
     others = (rng.integers(0, SIDE, agents), rng.integers(0, SIDE, agents))
     energy = (float(rng.uniform(20.0, 100.0)), float(rng.choice([0.0, 0.5])), 20.0, 0.5, 80.0)
     results = []
-    for walk in (fast_search._first_tied, fast_search._first_reached):
+    for walk in (bounded_search.first_tied, bounded_search.first_reached):
         search.stamp += 1
         found = walk(
             search.state, search.candidate, targets, start, stride, bound, rank, hold,
@@ -398,7 +398,7 @@ def test_none_uncontested_only_when_none_is(seed: int, agents: int) -> None:
     listed = search.uncovered_list[: belief.uncovered_count]
     found = search._rivals[:-1]
     search.stamp += 1
-    proved = fast_search._none_uncontested(
+    proved = bounded_search.none_uncontested(
         search.state, search.candidate, listed, start, stride, *others, search.home,
         energy, found, search._spare, search.stamp,
     )  # fmt: skip
@@ -455,7 +455,7 @@ def test_first_lesser_is_the_first_the_search_reaches(seed: int, agents: int, ho
     everyone = search.uncovered_list[: belief.uncovered_count]
     roomy = np.zeros(len(belief.state), dtype=np.int64)  # never too many to list
     search.stamp += 1
-    rank, cell, d = fast_search._first_lesser(
+    rank, cell, d = bounded_search.first_lesser(
         search.state, search.candidate, everyone, start, belief.stride, hold, *others,
         search.home, energy, roomy, search._spare, 8 * search.stamp,
     )  # fmt: skip
@@ -618,8 +618,8 @@ def test_a_way_round_stands_until_a_shorter_one_opens(monkeypatch) -> None:
     assert len(way) == 25  # down, through the gap at the bottom, and up
     known_at = belief.stamp
     bounded = []
-    among = fast_search._first_among
-    monkeypatch.setattr(fast_search, "_first_among", lambda *a: bounded.append(1) or among(*a))
+    among = fast_search.first_among
+    monkeypatch.setattr(fast_search, "first_among", lambda *a: bounded.append(1) or among(*a))
 
     belief.mark_free(belief.index((11, 11)))  # the map grows far from any shorter way
     belief.cover((11, 11), 1)

@@ -1,0 +1,572 @@
+"""Searches bounded to the ways to a few candidates, compiled with numba.
+
+A target search (``fast_search``) ranks every candidate against the team; most of
+its work is ruling out candidates that cannot come first. Here are the passes that
+list the few that might, by lower bounds of their distance (the Manhattan
+distance, and the difference of distances home: the charger as a landmark), and
+the searches bounded to the ways to those few, which reach them in the same order,
+from the same parents, as the search over the whole map: so the plans are the
+same, cell for cell.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from planner.belief import UNREACHED
+from planner.grid import CellState
+
+_FREE = int(CellState.FREE)
+
+
+#: Cells a target search reaches, with no target found but those left to
+#: others, before it tries ``first_lesser``.
+JUMP_AFTER = 4096
+#: Bounds ``first_lesser`` tries before leaving it to the search.
+JUMP_TRIES = 4
+
+
+@njit(cache=True, nogil=True)
+def first_lesser(
+    state: np.ndarray,
+    candidate: np.ndarray,
+    everyone: np.ndarray,
+    start: int,
+    stride: int,
+    hold: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+    found: np.ndarray,
+    spare: tuple[np.ndarray, np.ndarray, np.ndarray],
+    mark: int,
+) -> tuple[int, int, int]:
+    """The first candidate ``_search`` reaches that ranks 1 or better (within
+    ``hold`` of no other agent nearer to it, or uncontested) as (rank, cell,
+    distance); (-1, -1, -1) when it is left to the search. The way there is
+    left in ``spare``'s ``parent``; its ``seen`` marked with ``mark`` to
+    ``mark + JUMP_TRIES - 1``.
+
+    In a crowd every candidate near the agent is left to another, and the
+    search reaches a great part of the map before it finds one that is not,
+    although most of the map's candidates are not (they lie beyond the
+    crowd). Their lower bounds (``rivals_listed``) are cheap: the least of
+    them, ``B``, among those that may rank so, is where the first can be.
+    A search bounded to the ways to the ones within a bound (``first_among``)
+    finds the first of them within it, in the search's order, and is the
+    search's answer: any other that is nearer is within the bound too. The
+    bound widens from ``B`` until one is found (on open maps, nearly always at
+    ``B``) or the tries run out, or too many lie within it to list.
+    """
+    seen, queue, parent = spare
+    limit = hold + 1
+    r0 = start // stride
+    c0 = start % stride
+    h0 = home[start]
+    closer = 0
+    least = UNREACHED
+    for k in range(everyone.size):
+        v = everyone[k]
+        if candidate[v] == 0:
+            continue
+        mine = max(abs(v // stride - r0) + abs(v % stride - c0), abs(home[v] - h0))
+        if mine >= least:
+            continue
+        closer = may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
+        if closer < 0:
+            least = mine
+            closer = 0
+    if least == UNREACHED:
+        return -1, -1, -1
+    slack = 0
+    for attempt in range(JUMP_TRIES):
+        bound = least + slack
+        count = rivals_listed(
+            candidate, everyone, start, -1, bound, limit, stride, others_r, others_c,
+            home, energy, found,
+        )  # fmt: skip
+        if count == found.size:
+            return -1, -1, -1
+        rank, cell = first_among(
+            state, candidate, found[:count], start, stride, bound, 1, hold,
+            others_r, others_c, home, energy, seen, mark + attempt, parent, queue,
+        )  # fmt: skip
+        if rank >= 0:
+            d = 0
+            w = cell
+            while w != start:
+                w = parent[w]
+                d += 1
+            return rank, cell, d
+        slack = 2 * slack + 1
+    return -1, -1, -1
+
+
+@njit(cache=True, nogil=True)
+def none_uncontested(
+    state: np.ndarray,
+    candidate: np.ndarray,
+    listed: np.ndarray,
+    start: int,
+    stride: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+    found: np.ndarray,
+    spare: tuple[np.ndarray, np.ndarray, np.ndarray],
+    stamp: int,
+) -> bool:
+    """Is it certain that no candidate is uncontested (rank 0) for ``_search``?
+
+    A candidate is uncontested when its way from the start is no longer than
+    its distance to the nearest other agent. One pass lists the few for which
+    the lower bounds of ``rivals_listed`` allow it (the ``listed`` cells
+    cover them all, as for the horizon), and a breadth-first search, bounded
+    to the cells on a way to one of them short enough, tells whether any is
+    (False; also when there are too many to list). ``spare``: a ``seen``, a
+    ``queue`` and a ``parent`` of its own, as the search is left as it
+    stands, to go on with when this fails.
+    """
+    count = rivals_listed(
+        candidate, listed, start, -1, UNREACHED, UNREACHED, stride, others_r, others_c,
+        home, energy, found,
+    )  # fmt: skip
+    if count == found.size:
+        return False
+    if count == 0:
+        return True
+    targets = found[:count]
+    bounds = np.empty(count, dtype=np.int64)
+    for i in range(count):
+        t = targets[i]
+        bounds[i] = nearest_manhattan(others_r, others_c, t // stride - 1, t % stride - 1)
+    seen, queue, parent = spare
+    rank, _ = reached_within(
+        state, candidate, targets, bounds, start, stride, 0, 0, others_r, others_c, home,
+        energy, seen, stamp, parent, queue,
+    )  # fmt: skip
+    return rank < 0
+
+
+@njit(cache=True, nogil=True)
+def may_rival(
+    v: int,
+    mine: int,
+    limit: int,
+    stride: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    closer: int,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+) -> int:
+    """Could candidate ``v``, ``mine`` moves or more away, be a target that no
+    other agent is nearer to than ``min(its distance, limit)``? Not when
+    another agent is nearer than ``min(mine, limit)``: then the index of that
+    agent (ask about the next cell from there: neighbouring cells likely share
+    it). Not when it is out of range or cannot be afforded even at ``mine``
+    moves (``_search``'s tests, with ``energy`` its battery, cost, floor,
+    best_cost and budget): ``closer``. Else -1."""
+    bar = min(mine, limit)
+    r = v // stride - 1
+    c = v % stride - 1
+    n = others_r.size
+    for i in range(n):
+        j = closer + i
+        if j >= n:
+            j -= n
+        if abs(r - others_r[j]) + abs(c - others_c[j]) < bar:
+            return j
+    battery, cost, floor, best_cost, budget = energy
+    back = home[v]
+    if back >= UNREACHED or 2.0 * back * best_cost > budget:
+        return closer
+    if battery - cost * (mine + back) < floor:
+        return closer
+    return -1
+
+
+@njit(cache=True, nogil=True)
+def rivals_listed(
+    candidate: np.ndarray,
+    listed: np.ndarray,
+    start: int,
+    goal: int,
+    reach: int,
+    limit: int,
+    stride: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+    found: np.ndarray,
+) -> int:
+    """The listed candidates but ``goal`` that may be within ``reach`` moves of
+    the start and ``may_rival``: put in ``found``, and their count
+    (``found.size`` when there are more).
+
+    A path is at least as long as the Manhattan distance, and as the
+    difference of its ends' distances home (the charger as a landmark: the
+    stronger bound where walls make the way round long)."""
+    r0 = start // stride
+    c0 = start % stride
+    closer = 0
+    count = 0
+    for k in range(listed.size):
+        v = listed[k]
+        mine = abs(v // stride - r0) + abs(v % stride - c0)
+        if mine > reach or v == goal or candidate[v] == 0:
+            continue
+        mine = max(mine, abs(home[v] - home[start]))
+        if mine > reach:
+            continue
+        closer = may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
+        if closer < 0:
+            if count == found.size:
+                return count
+            found[count] = v
+            count += 1
+            closer = 0
+    return count
+
+
+@njit(cache=True, nogil=True)
+def in_square(candidate: np.ndarray, start: int, reach: int, stride: int, out: np.ndarray) -> int:
+    """The candidates within ``reach`` (Manhattan) of the start, read row by row
+    into ``out``; their count. Cheaper than passing over a long list of
+    uncovered cells when the square is the smaller."""
+    r0 = start // stride
+    c0 = start % stride
+    rows = candidate.size // stride
+    count = 0
+    for r in range(max(0, r0 - reach), min(rows, r0 + reach + 1)):
+        width = reach - abs(r - r0)
+        base = r * stride
+        for c in range(max(0, c0 - width), min(stride, c0 + width + 1)):
+            if candidate[base + c] != 0:
+                out[count] = base + c
+                count += 1
+    return count
+
+
+@njit(cache=True, nogil=True)
+def first_among(
+    state: np.ndarray,
+    candidate: np.ndarray,
+    targets: np.ndarray,
+    start: int,
+    stride: int,
+    bound: int,
+    rank: int,
+    hold: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+    seen: np.ndarray,
+    stamp: int,
+    parent: np.ndarray,
+    queue: np.ndarray,
+) -> tuple[int, int]:
+    """``_search`` when only the ``targets`` (candidates in range, and reached
+    from home) can be what it returns, all within ``bound`` moves: the first
+    of them it reaches that the agent can afford and that ranks ``rank`` or
+    better, as (rank, cell), or (-1, -1); ``parent`` holds the path there.
+
+    When no target is nearer than ``bound`` by Manhattan distance (on open
+    maps, a transit's target and the rivals as far as it), the walk of
+    ``first_tied`` finds it; else ``first_reached``, breadth-first.
+    """
+    r0 = start // stride
+    c0 = start % stride
+    for i in range(targets.size):
+        t = targets[i]
+        if abs(t // stride - r0) + abs(t % stride - c0) < bound:
+            return first_reached(
+                state, candidate, targets, start, stride, bound, rank, hold,
+                others_r, others_c, home, energy, seen, stamp, parent, queue,
+            )  # fmt: skip
+    return first_tied(
+        state, candidate, targets, start, stride, bound, rank, hold,
+        others_r, others_c, home, energy, seen, stamp, parent, queue,
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def target_rank(
+    v: int,
+    d: int,
+    rank: int,
+    hold: int,
+    stride: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+) -> int:
+    """The rank of candidate ``v`` reached at ``d`` moves, as ``_search`` ranks it,
+    or -1 when it is worse than ``rank`` or the agent cannot afford it there."""
+    battery, cost, floor, _, _ = energy
+    if battery - cost * (d + home[v]) < floor:
+        return -1
+    r = v // stride - 1
+    c = v % stride - 1
+    near = UNREACHED
+    for j in range(others_r.size):
+        m = abs(r - others_r[j]) + abs(c - others_c[j])
+        if m < near:
+            near = m
+    if near >= d:
+        found = 0
+    elif hold > 0 and near >= min(d, hold + 1):
+        found = 1
+    else:
+        found = 2
+    return found if found <= rank else -1
+
+
+@njit(cache=True, nogil=True)
+def first_tied(
+    state: np.ndarray,
+    candidate: np.ndarray,
+    targets: np.ndarray,
+    start: int,
+    stride: int,
+    bound: int,
+    rank: int,
+    hold: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+    seen: np.ndarray,
+    stamp: int,
+    parent: np.ndarray,
+    stack: np.ndarray,
+) -> tuple[int, int]:
+    """``first_reached`` when no target is nearer than ``bound`` by Manhattan
+    distance, without visiting the cells between.
+
+    The breadth-first search reaches the cells one move farther in the order
+    of their parents, and a parent's in the order N, S, E, W: it reaches a
+    cell first by the shortest way whose moves come first in that order, and
+    of the targets at one distance, first the one at the end of the first of
+    these ways. A target can then only be reached at ``bound`` moves, by a
+    way every move of which brings it one nearer (Manhattan), so on such a
+    way each cell's distance from the start is its Manhattan distance. A
+    depth-first walk trying N, S, E, W in turn, over the cells the breadth-first
+    search would admit that lie on such a way to a target it would take, and
+    never twice over a cell (one that led nowhere leads nowhere by any way
+    there), finds the first of these ways: the same target, by the same path.
+    """
+    r0 = start // stride
+    c0 = start % stride
+    n = targets.size
+    # The targets that may be taken (reached at ``bound`` moves, it is their rank there).
+    taken = np.empty(n, dtype=np.int64)
+    ranks = np.empty(n, dtype=np.int64)
+    count = 0
+    for i in range(n):
+        t = targets[i]
+        if candidate[t] == 0 or abs(t // stride - r0) + abs(t % stride - c0) != bound:
+            continue
+        found = target_rank(t, bound, rank, hold, stride, others_r, others_c, home, energy)
+        if found >= 0:
+            taken[count] = t
+            ranks[count] = found
+            count += 1
+    if count == 0:
+        return -1, -1
+    steps = (-stride, stride, 1, -1)
+    tried = np.zeros(bound + 1, dtype=np.int8)  # the moves tried from each cell of the walk
+    seen[start] = stamp
+    stack[0] = start
+    depth = 0
+    while depth >= 0:
+        k = tried[depth]
+        if k == 4:
+            depth -= 1  # led nowhere (and stays seen)
+            continue
+        tried[depth] = k + 1
+        u = stack[depth]
+        v = u + steps[k]
+        if state[v] != _FREE or seen[v] == stamp:
+            continue
+        d = depth + 1
+        r = v // stride
+        c = v % stride
+        on_way = -1
+        for i in range(count):
+            t = taken[i]
+            if d + abs(r - t // stride) + abs(c - t % stride) == bound:
+                on_way = i
+                break
+        if on_way < 0:
+            continue
+        within = False  # as ``first_reached`` admits cells, by every target
+        for i in range(n):
+            t = targets[i]
+            if d + max(abs(r - t // stride) + abs(c - t % stride), abs(home[v] - home[t])) <= bound:
+                within = True
+                break
+        if not within:
+            continue
+        seen[v] = stamp
+        parent[v] = u
+        if d == bound:
+            return ranks[on_way], v  # on the way to it and as far: the target itself
+        depth = d
+        stack[depth] = v
+        tried[depth] = 0
+    return -1, -1
+
+
+@njit(cache=True, nogil=True)
+def first_reached(
+    state: np.ndarray,
+    candidate: np.ndarray,
+    targets: np.ndarray,
+    start: int,
+    stride: int,
+    bound: int,
+    rank: int,
+    hold: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+    seen: np.ndarray,
+    stamp: int,
+    parent: np.ndarray,
+    queue: np.ndarray,
+) -> tuple[int, int]:
+    """``first_among``, breadth-first: ``reached_within`` with one bound for all."""
+    bounds = np.full(targets.size, bound, dtype=np.int64)
+    return reached_within(
+        state, candidate, targets, bounds, start, stride, rank, hold,
+        others_r, others_c, home, energy, seen, stamp, parent, queue,
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def reached_within(
+    state: np.ndarray,
+    candidate: np.ndarray,
+    targets: np.ndarray,
+    bounds: np.ndarray,
+    start: int,
+    stride: int,
+    rank: int,
+    hold: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    home: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+    seen: np.ndarray,
+    stamp: int,
+    parent: np.ndarray,
+    queue: np.ndarray,
+) -> tuple[int, int]:
+    """The first of the ``targets`` that ``_search`` reaches within its bound
+    (``bounds``, one each) and that the agent can afford and that ranks
+    ``rank`` or better there, as (rank, cell), or (-1, -1); ``parent`` holds
+    the path there.
+
+    Breadth-first from the start in the search's order, over the cells whose
+    distance plus a lower bound of the way on to some target (as in
+    ``rivals_listed``) is at most that target's bound: either bound changes by
+    at most one a move, so, as in ``_path_search``, every target reached
+    within its bound is reached in the same order, from the same parents, as
+    by the search over the whole map.
+    """
+    steps = (-stride, stride, 1, -1)
+    n = targets.size
+    toward = 0
+    seen[start] = stamp
+    queue[0] = start
+    head = 0
+    tail = 1
+    level_end = 1
+    distance = 0
+    while head < tail:
+        if head == level_end:
+            level_end = tail
+            distance += 1
+        u = queue[head]
+        head += 1
+        d = distance + 1
+        for k in range(4):
+            v = u + steps[k]
+            if state[v] != _FREE or seen[v] == stamp:
+                continue
+            r = v // stride
+            c = v % stride
+            within = False
+            for i in range(n):
+                j = toward + i
+                if j >= n:
+                    j -= n
+                t = targets[j]
+                apart = max(abs(r - t // stride) + abs(c - t % stride), abs(home[v] - home[t]))
+                if d + apart <= bounds[j]:
+                    toward = j  # neighbouring cells likely lie on the way to it too
+                    within = True
+                    break
+            if not within:
+                continue
+            seen[v] = stamp
+            parent[v] = u
+            queue[tail] = v
+            tail += 1
+            if candidate[v] == 0:
+                continue
+            target = False
+            for i in range(n):
+                if targets[i] == v:
+                    target = True
+                    break
+            if not target:
+                continue
+            found = target_rank(v, d, rank, hold, stride, others_r, others_c, home, energy)
+            if found >= 0:
+                return found, v
+    return -1, -1
+
+
+@njit(cache=True, nogil=True)
+def none_between(
+    cells: np.ndarray, start: int, goal: int, moves: int, stride: int, home: np.ndarray
+) -> bool:
+    """Does no way from ``start`` to ``goal`` through any of ``cells`` come to less
+    than ``moves``, by the lower bounds of ``rivals_listed``?"""
+    r0 = start // stride
+    c0 = start % stride
+    r1 = goal // stride
+    c1 = goal % stride
+    h0 = home[start]
+    h1 = home[goal]
+    for k in range(cells.size):
+        v = cells[k]
+        r = v // stride
+        c = v % stride
+        there = max(abs(r - r0) + abs(c - c0), abs(home[v] - h0))
+        on = max(abs(r - r1) + abs(c - c1), abs(home[v] - h1))
+        if there + on < moves:
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def nearest_manhattan(rows: np.ndarray, cols: np.ndarray, r: int, c: int) -> int:
+    """The Manhattan distance from ``(r, c)`` to the nearest of the cells (0 if none)."""
+    if rows.size == 0:
+        return 0
+    nearest = UNREACHED
+    for j in range(rows.size):
+        m = abs(r - rows[j]) + abs(c - cols[j])
+        if m < nearest:
+            nearest = m
+    return nearest
