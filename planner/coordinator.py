@@ -277,7 +277,11 @@ class Coordinator:
 
     @property
     def finished(self) -> bool:
-        return all(a.mode in (AgentMode.DONE, AgentMode.LOST) for a in self._agents.values())
+        # Asked after every iteration: a loop, with no generator to build.
+        for a in self._agents.values():
+            if a.mode != AgentMode.DONE and a.mode != AgentMode.LOST:
+                return False
+        return True
 
     def out_of_range_cells(self) -> list[Cell]:
         return [self.belief.cell(i) for i in self.belief.uncovered if not self._in_range(i)]

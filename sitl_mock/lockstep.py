@@ -105,6 +105,9 @@ class LockstepWorld:
 
     def end_iteration(self) -> None:
         """Charge the agents that asked, at most ``charging_slots`` of them."""
+        if not self._queue:  # nobody charging: most iterations
+            self._requested.clear()
+            return
         slots = len(self._queue) if self.charging_slots is None else self.charging_slots
         for agent in self._queue[:slots]:
             if agent not in self._requested:
