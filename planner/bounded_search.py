@@ -28,6 +28,16 @@ JUMP_TRIES = 4
 
 
 @njit(cache=True, nogil=True)
+def way_at_least(u: int, v: int, stride: int, home: np.ndarray) -> int:
+    """A lower bound of the moves between cells ``u`` and ``v``: a way is at
+    least as long as the Manhattan distance, and as the difference of its
+    ends' distances home (the charger as a landmark: the stronger bound where
+    walls make the way round long)."""
+    apart = abs(u // stride - v // stride) + abs(u % stride - v % stride)
+    return max(apart, abs(home[u] - home[v]))
+
+
+@njit(cache=True, nogil=True)
 def first_lesser(
     state: np.ndarray,
     candidate: np.ndarray,
@@ -62,16 +72,13 @@ def first_lesser(
     """
     seen, queue, parent = spare
     limit = hold + 1
-    r0 = start // stride
-    c0 = start % stride
-    h0 = home[start]
     closer = 0
     least = UNREACHED
     for k in range(everyone.size):
         v = everyone[k]
         if candidate[v] == 0:
             continue
-        mine = max(abs(v // stride - r0) + abs(v % stride - c0), abs(home[v] - h0))
+        mine = way_at_least(v, start, stride, home)
         if mine >= least:
             continue
         closer = may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
@@ -134,10 +141,8 @@ def none_uncontested(
         candidate, listed, start, -1, UNREACHED, UNREACHED, stride, others_r, others_c,
         home, energy, found,
     )  # fmt: skip
-    if count == found.size:
-        return False
-    if count == 0:
-        return True
+    if count == found.size or others_r.size == 0:
+        return count == 0  # with nobody else, any candidate it can reach is uncontested
     targets = found[:count]
     bounds = np.empty(count, dtype=np.int64)
     for i in range(count):
@@ -205,12 +210,9 @@ def rivals_listed(
     found: np.ndarray,
 ) -> int:
     """The listed candidates but ``goal`` that may be within ``reach`` moves of
-    the start and ``may_rival``: put in ``found``, and their count
-    (``found.size`` when there are more).
-
-    A path is at least as long as the Manhattan distance, and as the
-    difference of its ends' distances home (the charger as a landmark: the
-    stronger bound where walls make the way round long)."""
+    the start (``way_at_least``, its Manhattan part first: it rules most out)
+    and ``may_rival``: put in ``found``, and their count (``found.size`` when
+    there are more)."""
     r0 = start // stride
     c0 = start % stride
     closer = 0
@@ -408,8 +410,7 @@ def first_tied(
             continue
         within = False  # as ``first_reached`` admits cells, by every target
         for i in range(n):
-            t = targets[i]
-            if d + max(abs(r - t // stride) + abs(c - t % stride), abs(home[v] - home[t])) <= bound:
+            if d + way_at_least(v, targets[i], stride, home) <= bound:
                 within = True
                 break
         if not within:
@@ -476,8 +477,8 @@ def reached_within(
     the path there.
 
     Breadth-first from the start in the search's order, over the cells whose
-    distance plus a lower bound of the way on to some target (as in
-    ``rivals_listed``) is at most that target's bound: either bound changes by
+    distance plus a lower bound of the way on to some target (``way_at_least``)
+    is at most that target's bound: either bound changes by
     at most one a move, so, as in ``_path_search``, every target reached
     within its bound is reached in the same order, from the same parents, as
     by the search over the whole map.
@@ -502,16 +503,12 @@ def reached_within(
             v = u + steps[k]
             if state[v] != _FREE or seen[v] == stamp:
                 continue
-            r = v // stride
-            c = v % stride
             within = False
             for i in range(n):
                 j = toward + i
                 if j >= n:
                     j -= n
-                t = targets[j]
-                apart = max(abs(r - t // stride) + abs(c - t % stride), abs(home[v] - home[t]))
-                if d + apart <= bounds[j]:
+                if d + way_at_least(v, targets[j], stride, home) <= bounds[j]:
                     toward = j  # neighbouring cells likely lie on the way to it too
                     within = True
                     break
@@ -541,20 +538,10 @@ def none_between(
     cells: np.ndarray, start: int, goal: int, moves: int, stride: int, home: np.ndarray
 ) -> bool:
     """Does no way from ``start`` to ``goal`` through any of ``cells`` come to less
-    than ``moves``, by the lower bounds of ``rivals_listed``?"""
-    r0 = start // stride
-    c0 = start % stride
-    r1 = goal // stride
-    c1 = goal % stride
-    h0 = home[start]
-    h1 = home[goal]
+    than ``moves``, by ``way_at_least``?"""
     for k in range(cells.size):
         v = cells[k]
-        r = v // stride
-        c = v % stride
-        there = max(abs(r - r0) + abs(c - c0), abs(home[v] - h0))
-        on = max(abs(r - r1) + abs(c - c1), abs(home[v] - h1))
-        if there + on < moves:
+        if way_at_least(start, v, stride, home) + way_at_least(v, goal, stride, home) < moves:
             return False
     return True
 
