@@ -314,13 +314,9 @@ def target_rank(
     battery, cost, floor, _, _ = energy
     if battery - cost * (d + home[v]) < floor:
         return -1
-    r = v // stride - 1
-    c = v % stride - 1
-    near = UNREACHED
-    for j in range(others_r.size):
-        m = abs(r - others_r[j]) + abs(c - others_c[j])
-        if m < near:
-            near = m
+    near = UNREACHED  # nobody else: uncontested
+    if others_r.size:
+        near = nearest_manhattan(others_r, others_c, v // stride - 1, v % stride - 1)
     if near >= d:
         found = 0
     elif hold > 0 and near >= min(d, hold + 1):
