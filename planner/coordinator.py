@@ -115,8 +115,18 @@ _NOBODY = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
 _PRIORITY = {AgentMode.RETURN: 3, AgentMode.HOMING: 2, AgentMode.TRANSIT: 1}
 
 
-_WORKING = frozenset({AgentMode.EXPLORE, AgentMode.TRANSIT})
-_HOMEWARD = frozenset({AgentMode.RETURN, AgentMode.HOMING})
+#: The modes and the move kind, for the decisions: in Python 3.11 every look-up of
+#: an enum member on its class (``AgentMode.EXPLORE``) goes through
+#: ``EnumType.__getattr__``, about 80 ns, and each decision makes dozens.
+_EXPLORE, _TRANSIT, _RETURN = AgentMode.EXPLORE, AgentMode.TRANSIT, AgentMode.RETURN
+_CHARGE, _IDLE, _HOMING = AgentMode.CHARGE, AgentMode.IDLE, AgentMode.HOMING
+_DONE, _LOST = AgentMode.DONE, AgentMode.LOST
+_MOVE = ActionKind.MOVE
+_STOPPED = frozenset({_DONE, _LOST})
+_AT_REST = frozenset({_DONE, _HOMING})  # nothing left to do, unless coverage is incomplete
+
+_WORKING = frozenset({_EXPLORE, _TRANSIT})
+_HOMEWARD = frozenset({_RETURN, _HOMING})
 #: An agent going home held up this many times ``patience`` is given the cell it
 #: waits for (``_kept_waiting_for``), and the agent it asks to make way goes home
 #: with it (``_make_way``): late enough to leave ordinary crossings to the order
@@ -132,7 +142,7 @@ class _Agent:
     slot: int
     memo: HorizonMemo
     battery_pct: float = 100.0
-    _mode: AgentMode = AgentMode.EXPLORE
+    _mode: AgentMode = _EXPLORE
     path: deque[int] = field(default_factory=deque)  # remaining moves, next first
     goal: int | None = None
     heading: Direction | None = None
@@ -153,6 +163,8 @@ class _Agent:
     held_backoff: int = 0
     #: Asked to make way by an agent that is itself making way (see ``_make_way``).
     pushed: bool = False
+    #: ``mode in _WORKING``, as last written to ``team.working`` (which starts all True).
+    _working: bool = True
     id: int = field(init=False)
 
     def __post_init__(self) -> None:
@@ -165,7 +177,10 @@ class _Agent:
     @mode.setter
     def mode(self, mode: AgentMode) -> None:
         self._mode = mode
-        self.team.working[self.slot] = mode in _WORKING
+        working = mode in _WORKING
+        if working != self._working:  # a write to the array costs more than the test
+            self._working = working
+            self.team.working[self.slot] = working
 
     def stand(self, index: int, cell: Cell) -> None:
         self.index = index
@@ -211,6 +226,14 @@ class Coordinator:
         self._roadmap = (
             Roadmap(self.settings) if self.settings.path_planner == PathPlannerKind.PRM else None
         )
+        self._paper_sweep = self.settings.bm_rule == BmRule.PAPER
+        policy = self.settings.target_policy
+        #: Where a blocked agent looks for a target, in order (``_take_target``).
+        self._tiers: tuple[_Tier, ...] = {
+            TargetPolicy.OWN_FIRST: (_Tier.OWN, _Tier.GLOBAL, _Tier.NET),
+            TargetPolicy.NEAREST: (_Tier.GLOBAL, _Tier.NET),
+            TargetPolicy.FRONTIER: (_Tier.FRONTIER,),
+        }[policy]
         self.btps_detected = 0
         self.safety_net_fires = 0
         self._best_cost: float | None = None  # cache of _best_move_cost()
@@ -278,8 +301,8 @@ class Coordinator:
     @property
     def finished(self) -> bool:
         # Asked after every iteration: a loop, with no generator to build.
-        for a in self._agents.values():
-            if a.mode != AgentMode.DONE and a.mode != AgentMode.LOST:
+        for a in self._agents.values():  # noqa: SIM110
+            if a.mode not in _STOPPED:
                 return False
         return True
 
@@ -325,7 +348,7 @@ class Coordinator:
             self._on_covered(index, a.id)
         if newly_free and self._roadmap is not None:
             self._roadmap.grow(belief, newly_free)
-        if a.heading is not None and a.mode == AgentMode.EXPLORE:
+        if a.heading is not None and a.mode == _EXPLORE:
             for x in btp.detect(belief, index, a.heading):
                 if self.stacks.push(a.id, x):
                     self.btps_detected += 1
@@ -354,7 +377,7 @@ class Coordinator:
     def mark_lost(self, agent: int) -> None:
         """The agent is gone: its BTPs go back to the global stack, its claims are freed."""
         a = self._agents[agent]
-        a.mode = AgentMode.LOST
+        a.mode = _LOST
         self._best_cost = None
         a.path.clear()
         self.stacks.release(a.id)
@@ -409,20 +432,20 @@ class Coordinator:
             self._release(a.trailing, a.id)
             a.trailing = None
         mode = a.mode
-        if mode == AgentMode.LOST:
+        if mode == _LOST:
             return WAIT
-        if (mode == AgentMode.DONE or mode == AgentMode.HOMING) and not self.homeward:
-            a.mode = mode = AgentMode.IDLE  # back to work: something came into range again
-        if mode == AgentMode.DONE:
+        if mode in _AT_REST and not self.homeward:
+            a.mode = mode = _IDLE  # back to work: something came into range again
+        if mode == _DONE:
             return WAIT
         here = a.index
         at_charger = here == self.belief.charger_index
         if self.belief.charger_dist[here] == UNREACHED:
             return self._reconnect(a)
-        if mode == AgentMode.CHARGE:
+        if mode == _CHARGE:
             if a.battery_pct < self.settings.resume_pct - _EPS and not self._recalled:
                 return CHARGE
-            a.mode = mode = AgentMode.IDLE
+            a.mode = mode = _IDLE
         if not at_charger and mode not in _HOMEWARD and not self._can_afford(a, 0, here):
             # The battery fell without a move (a copter hovering while it waits, a
             # sag, a worse estimate of its consumption): home now, before the reserve.
@@ -436,19 +459,19 @@ class Coordinator:
         mode = a.mode
         if self.homeward and mode not in _HOMEWARD:
             self._drop_claim(a)
-            a.mode = mode = AgentMode.HOMING
+            a.mode = mode = _HOMING
             a.path.clear()
         if mode in _HOMEWARD:
             if at_charger:
-                if mode == AgentMode.HOMING or self._recalled:
-                    a.mode = AgentMode.DONE
+                if mode == _HOMING or self._recalled:
+                    a.mode = _DONE
                     return WAIT
-                a.mode = AgentMode.CHARGE
+                a.mode = _CHARGE
                 a.charges += 1
                 self._events.append(PlannerEvent(EventKind.CHARGED, a.id, self.belief.charger))
                 return CHARGE
             return self._follow(a, self.belief.charger_index)
-        if mode == AgentMode.TRANSIT:
+        if mode == _TRANSIT:
             assert a.goal is not None
             # Re-deciding needs consistent shortest paths: with the roadmap a
             # fresh path from one step on can be longer than the rest of the
@@ -464,12 +487,12 @@ class Coordinator:
                 return self._follow(a, a.goal)
             a.was_heading_for = a.goal
             self._drop_claim(a)
-            a.mode = AgentMode.EXPLORE
+            a.mode = _EXPLORE
         nxt = self._bm_next(a)
         if nxt is not None:
             a.was_heading_for = None
             if self._can_afford(a, 1, nxt):
-                a.mode = AgentMode.EXPLORE
+                a.mode = _EXPLORE
                 return self._move(a, nxt)
             # Staying alive: not enough to come back from there. Leave a BTP where
             # the sweep stops so that it is resumed, and go to charge.
@@ -503,7 +526,7 @@ class Coordinator:
             v = here + s
             if state[v] == _FREE and not covered[v] and v not in occupant:
                 candidates.append(v)
-        if len(candidates) <= 1 or self.settings.bm_rule == BmRule.PAPER:
+        if len(candidates) <= 1 or self._paper_sweep:
             return candidates[0] if candidates else None
         counts = []
         for v in candidates:
@@ -537,17 +560,7 @@ class Coordinator:
         previous, old_path = a.was_heading_for, a.path
         a.was_heading_for = None
         self._drop_claim(a)
-        uncovered, claims, owner = self.belief.uncovered, self._claims, self.stacks.owner
-        tiers: list[tuple[_Tier, set[int] | dict[int, None]]]
-        policy = self.settings.target_policy
-        if policy == TargetPolicy.OWN_FIRST:
-            tiers = [(_Tier.OWN, self.stacks.own(a.id)), (_Tier.GLOBAL, owner)]
-        elif policy == TargetPolicy.NEAREST:
-            tiers = [(_Tier.GLOBAL, owner)]
-        else:
-            tiers = [(_Tier.FRONTIER, uncovered)]
-        if policy != TargetPolicy.FRONTIER:
-            tiers.append((_Tier.NET, uncovered))
+        uncovered, claims = self.belief.uncovered, self._claims
         # Still on the way to ``previous``: the search may be skipped when it
         # would surely return it again (``TargetSearch.run``).
         hint = None
@@ -559,7 +572,8 @@ class Coordinator:
         ):
             hint = (previous, old_path, a.path_known_at)
         any_candidate = False
-        for tier, pool in tiers:
+        for tier in self._tiers:
+            pool = self._pool(tier, a)
             if self._roadmap is None:
                 found = self._nearest_affordable(a, None if pool is uncovered else pool, hint)
                 if found is None:
@@ -577,7 +591,7 @@ class Coordinator:
                     self.belief, a.index, candidates, lambda i, d: self._can_afford(a, d, i)
                 )
             if found is HELD:
-                a.mode = AgentMode.IDLE
+                a.mode = _IDLE
                 a.held_backoff = min(2 * a.held_backoff + 1, self.settings.held_backoff_max)
                 a.held_for = a.held_backoff
                 return WAIT
@@ -591,7 +605,7 @@ class Coordinator:
                 # and the agent paces between them for ever.
                 path = old_path
             self._claims[goal] = a.id
-            a.goal, a.mode = goal, AgentMode.TRANSIT
+            a.goal, a.mode = goal, _TRANSIT
             a.path = path if path is old_path else deque(path)
             a.path_known_at = self.belief.stamp
             if self.settings.far_transit_recheck:
@@ -605,8 +619,15 @@ class Coordinator:
             a.index != self.belief.charger_index or a.battery_pct < self.settings.resume_pct - _EPS
         ):
             return self._go_charge(a)  # what is left needs more battery than it has
-        a.mode = AgentMode.IDLE
+        a.mode = _IDLE
         return WAIT
+
+    def _pool(self, tier: _Tier, a: _Agent) -> set[int] | dict[int, None]:
+        if tier == _Tier.OWN:
+            return self.stacks.own(a.id)
+        if tier == _Tier.GLOBAL:
+            return self.stacks.owner
+        return self.belief.uncovered
 
     def _nearest_affordable(
         self,
@@ -653,7 +674,7 @@ class Coordinator:
         """The cheapest move of any agent still in the mission (inf when none is)."""
         if self._best_cost is None:
             self._best_cost = min(
-                (self._move_cost(b) for b in self._agents.values() if b.mode != AgentMode.LOST),
+                (self._move_cost(b) for b in self._agents.values() if b.mode != _LOST),
                 default=math.inf,
             )
         return self._best_cost
@@ -689,11 +710,11 @@ class Coordinator:
 
     def _go_charge(self, a: _Agent) -> Action:
         self._drop_claim(a)
-        a.mode = AgentMode.RETURN
+        a.mode = _RETURN
         a.path.clear()
         self._events.append(PlannerEvent(EventKind.RETURN, a.id, self.belief.cell(a.index)))
         if a.index == self.belief.charger_index:
-            a.mode = AgentMode.CHARGE
+            a.mode = _CHARGE
             a.charges += 1
             return CHARGE
         return self._follow(a, self.belief.charger_index)
@@ -707,7 +728,7 @@ class Coordinator:
         if path is None:
             # Walled in for good (a lost vehicle in the only door): it can never come
             # home, and the mission must not wait for it.
-            a.mode = AgentMode.DONE
+            a.mode = _DONE
             self._drop_claim(a)
             return WAIT
         if not path or self._occupant.get(path[0], a.id) != a.id:
@@ -734,10 +755,10 @@ class Coordinator:
         if not a.path or abs(a.path[0] - a.index) not in (1, self.belief.stride):
             path = self._plan(a, goal)
             if path is None:  # cannot happen on a connected known map; be safe
-                a.mode = AgentMode.IDLE
+                a.mode = _IDLE
                 self._drop_claim(a)
                 return WAIT
-            if a.mode == AgentMode.TRANSIT and not self._can_afford(a, len(path), goal):
+            if a.mode == _TRANSIT and not self._can_afford(a, len(path), goal):
                 return self._go_charge(a)  # the new way there is longer than budgeted
             a.path = deque(path)
             shortest = self._roadmap is None or goal == self.belief.charger_index
@@ -793,7 +814,7 @@ class Coordinator:
         path = self._search.path(a.index, goal, blocked, len(a.path) + 2 * self.settings.patience)
         if not path:
             return None
-        if a.mode in (AgentMode.RETURN, AgentMode.HOMING):
+        if a.mode in (_RETURN, _HOMING):
             affordable = a.battery_pct - self._move_cost(a) * len(path) >= (
                 self.settings.reserve_pct - _EPS
             )
@@ -805,7 +826,7 @@ class Coordinator:
         return (_PRIORITY.get(a.mode, 0), -a.id)
 
     def _ask_to_make_way(self, a: _Agent, blocker: _Agent) -> None:
-        if blocker.mode == AgentMode.IDLE or self._priority(a) > self._priority(blocker):
+        if blocker.mode == _IDLE or self._priority(a) > self._priority(blocker):
             asked = blocker.make_way_for
             # The most urgent request stands (a returning agent before one
             # leaving the charger), or the two can undo each other for ever.
@@ -905,11 +926,7 @@ class Coordinator:
         assert b.letting_pass is not None
         agent, cell, left = b.letting_pass
         a = self._agents[agent]
-        if (
-            left > 0
-            and a.mode not in (AgentMode.DONE, AgentMode.LOST)
-            and (cell in a.path or a.pending == cell)
-        ):
+        if left > 0 and a.mode not in (_DONE, _LOST) and (cell in a.path or a.pending == cell):
             b.letting_pass = (agent, cell, left - 1)
             return True
         b.letting_pass = None
@@ -919,7 +936,7 @@ class Coordinator:
         a.waited = 0
         a.pending = to
         self._occupy(to, a.id)
-        return Action(ActionKind.MOVE, self.belief.cell(to))
+        return Action(_MOVE, self.belief.cell(to))
 
     # -- bookkeeping --------------------------------------------------------------
 

@@ -8,8 +8,9 @@ them on the pad, a limited number at a time.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from types import MappingProxyType
 
 import numpy as np
 
@@ -45,6 +46,9 @@ class LockstepWorld:
         self.charge_pct_per_step = charge_pct_per_step
         self.charging_slots = charging_slots
         self._bodies = {b.id: b for b in bodies}
+        self._charger = grid.charger
+        #: Battery percent each agent uses per move.
+        self._move_cost = {b.id: b.energy_per_m_pct * cell_size_m for b in bodies}
         self.position: dict[int, Cell] = {b.id: grid.charger for b in bodies}
         self._held: dict[Cell, int] = {}  # cell -> agent on it, off the pad
         self.battery: dict[int, float] = {b.id: 100.0 for b in bodies}
@@ -55,10 +59,11 @@ class LockstepWorld:
         self._stride = grid.shape[1] + 2
         self._free = np.pad(~grid.obstacle, 1, constant_values=False).tobytes()
         self._offsets = [(d, d.value[0] * self._stride + d.value[1]) for d in NEIGHBOURS]
-        #: Readings by the 3x3 block of free bytes around a cell: at most 512 of them.
-        self._readings: dict[bytes, dict[Direction, CellState]] = {}
+        #: Readings by the 3x3 block of free bytes around a cell: at most 512 of them,
+        #: handed out read-only (shared by every cell with the same block).
+        self._readings: dict[bytes, Mapping[Direction, CellState]] = {}
 
-    def sense(self, cell: Cell) -> dict[Direction, CellState]:
+    def sense(self, cell: Cell) -> Mapping[Direction, CellState]:
         """The 8 neighbours of ``cell``: free or obstacle (the paper's eq. 2)."""
         s = self._stride
         i = (cell[0] + 1) * s + cell[1] + 1
@@ -66,10 +71,10 @@ class LockstepWorld:
         block = free[i - s - 1 : i - s + 2] + free[i - 1 : i + 2] + free[i + s - 1 : i + s + 2]
         readings = self._readings.get(block)
         if readings is None:
-            readings = self._readings[block] = {
-                d: CellState.FREE if free[i + k] else CellState.OBSTACLE for d, k in self._offsets
-            }
-        return dict(readings)
+            readings = self._readings[block] = MappingProxyType(
+                {d: CellState.FREE if free[i + k] else CellState.OBSTACLE for d, k in self._offsets}
+            )
+        return readings
 
     def move(self, agent: int, to: Cell) -> None:
         if agent in self.dead:
@@ -85,10 +90,10 @@ class LockstepWorld:
             raise WorldError(f"agent {agent}: {to} is held by agent {other}")
         if self._held.get(here) == agent:
             del self._held[here]
-        if to != self.grid.charger:
+        if to != self._charger:
             self._held[to] = agent
         self.position[agent] = to
-        self.battery[agent] -= self._bodies[agent].energy_per_m_pct * self.cell_size_m
+        self.battery[agent] -= self._move_cost[agent]
         if self.battery[agent] <= 0:
             self.battery[agent] = 0.0
             self.dead.add(agent)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -16,7 +17,8 @@ from sitl_mock.lockstep import Body, LockstepWorld
 def test_sensing_reads_the_true_neighbours(seed: int, rows: int, cols: int) -> None:
     """Every cell, in any order (readings are kept by the pattern around a cell):
     a neighbour is free exactly when it is on the map and not a wall; a reading
-    handed out is the caller's to change."""
+    handed out is shared by the cells around which the walls lie alike, so it is
+    read-only."""
     rng = np.random.default_rng(seed)
     walls = rng.random((rows, cols)) < rng.uniform(0.0, 0.6)
     walls[0, 0] = False
@@ -29,4 +31,5 @@ def test_sensing_reads_the_true_neighbours(seed: int, rows: int, cols: int) -> N
             nr, nc = r + d.value[0], c + d.value[1]
             free = 0 <= nr < rows and 0 <= nc < cols and not walls[nr, nc]
             assert readings[d] == (CellState.FREE if free else CellState.OBSTACLE)
-        readings.clear()
+        with pytest.raises(TypeError):
+            readings[NEIGHBOURS[0]] = CellState.UNKNOWN  # type: ignore[index]
