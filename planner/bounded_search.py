@@ -92,8 +92,8 @@ def first_lesser(
         bound = least + slack
         count = rivals_listed(
             candidate, everyone, start, -1, bound, limit, stride, others_r, others_c,
-            home, energy, found,
-        )  # fmt: skip
+            home, energy, found, np.empty(0, dtype=np.int64),
+        )[0]  # fmt: skip
         if count == found.size:
             return -1, -1, -1
         rank, cell = first_among(
@@ -139,8 +139,8 @@ def none_uncontested(
     """
     count = rivals_listed(
         candidate, listed, start, -1, UNREACHED, UNREACHED, stride, others_r, others_c,
-        home, energy, found,
-    )  # fmt: skip
+        home, energy, found, np.empty(0, dtype=np.int64),
+    )[0]  # fmt: skip
     if count == found.size or others_r.size == 0:
         return count == 0  # with nobody else, any candidate it can reach is uncontested
     targets = found[:count]
@@ -208,31 +208,40 @@ def rivals_listed(
     home: np.ndarray,
     energy: tuple[float, float, float, float, float],
     found: np.ndarray,
-) -> int:
+    near: np.ndarray,
+) -> tuple[int, int]:
     """The listed candidates but ``goal`` that may be within ``reach`` moves of
     the start (``way_at_least``, its Manhattan part first: it rules most out)
     and ``may_rival``: put in ``found``, and their count (``found.size`` when
-    there are more)."""
+    there are more); second, the count of the listed candidates but ``goal``
+    within ``reach`` by Manhattan distance, put in ``near`` when it has room for
+    every listed cell (else left alone; -1 when the pass stopped at too many
+    rivals). ``near`` may be ``listed`` itself: it is written behind the reading."""
     r0 = start // stride
     c0 = start % stride
+    keep = near.size >= listed.size
     closer = 0
     count = 0
+    kept = 0
     for k in range(listed.size):
         v = listed[k]
         mine = abs(v // stride - r0) + abs(v % stride - c0)
         if mine > reach or v == goal or candidate[v] == 0:
             continue
+        if keep:
+            near[kept] = v
+        kept += 1
         mine = max(mine, abs(home[v] - home[start]))
         if mine > reach:
             continue
         closer = may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
         if closer < 0:
             if count == found.size:
-                return count
+                return count, -1
             found[count] = v
             count += 1
             closer = 0
-    return count
+    return count, kept
 
 
 @njit(cache=True, nogil=True)

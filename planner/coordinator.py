@@ -27,7 +27,7 @@ from scipy import ndimage
 
 from planner import btp
 from planner.belief import UNREACHED, MapBelief, with_unknown_side
-from planner.fast_search import HorizonMemo, TargetSearch, Team, nearest_manhattan
+from planner.fast_search import HorizonMemo, TargetSearch, Team, WayMemo, nearest_manhattan
 from planner.grid import MOVES, Cell, CellState, Direction, manhattan
 from planner.paths import path_to_charger, path_to_known
 from planner.prm import Roadmap
@@ -141,6 +141,7 @@ class _Agent:
     team: Team
     slot: int
     memo: HorizonMemo
+    way_memo: WayMemo = field(default_factory=WayMemo)
     battery_pct: float = 100.0
     _mode: AgentMode = _EXPLORE
     path: deque[int] = field(default_factory=deque)  # remaining moves, next first
@@ -662,6 +663,7 @@ class Coordinator:
             pool,
             a.memo if pool is None else None,
             hint if pool is None else None,
+            a.way_memo if pool is None else None,
         )
         if found is None:
             return None

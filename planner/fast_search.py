@@ -414,6 +414,74 @@ class HorizonMemo:
         self._kept = self._listed = kept.size
 
 
+class WayMemo:
+    """One agent's candidates near its way, carried along a transit from one
+    check of its target (``TargetSearch._confirm``) to the next.
+
+    The check lists the candidates within the way's length of the agent by
+    Manhattan distance before it tests their lower bounds. Later, on the way
+    to the same target, a cell that was farther than the way then is farther
+    still when the agent has come no farther, by Manhattan distance, than the
+    way has shortened: the distance to it falls by at most what the agent
+    moved. So the cells listed then, those that became free since
+    (``MapBelief.added``) and those claimed then (a claim may be released:
+    claimed cells are no candidates while it lasts) hold every candidate
+    within reach now, and the check passes over them instead of over the
+    uncovered cells of the whole map or of the square around the agent.
+    """
+
+    def __init__(self) -> None:
+        self._goal = -1  # none kept
+        self._start = 0
+        self._moves = 0
+        self._since = 0  # ``MapBelief.added_count`` when they were kept
+        self._claimed = np.zeros(0, dtype=np.int64)
+        #: The cells kept, in the first ``_kept`` items, and room behind them.
+        self._cells = np.zeros(64, dtype=np.int64)
+        self._kept = 0
+
+    def listed(self, start: int, goal: int, moves: int, belief: MapBelief) -> np.ndarray | None:
+        """Every candidate within ``moves`` of ``start`` by Manhattan distance, and
+        others, on the way to ``goal``; None when what is kept cannot tell."""
+        if goal != self._goal:
+            return None
+        stride = belief.stride
+        came = abs(start // stride - self._start // stride) + abs(
+            start % stride - self._start % stride
+        )
+        if came > self._moves - moves:
+            return None
+        kept, added = self._kept, belief.added_count - self._since
+        size = kept + added + self._claimed.size
+        if size > self._cells.size:
+            grown = np.zeros(max(size, 2 * self._cells.size), dtype=np.int64)
+            grown[:kept] = self._cells[:kept]
+            self._cells = grown
+        cells = self._cells
+        new = np.frombuffer(belief.added, dtype=np.int64)
+        cells[kept : kept + added] = new[self._since : belief.added_count]
+        cells[kept + added : size] = self._claimed
+        return cells[:size]
+
+    def room(self, size: int) -> np.ndarray:
+        """Where the next cells to keep are to be written: at least ``size`` items
+        (the cells ``listed`` handed out, when they are read: the pass writes
+        behind its reading)."""
+        if size > self._cells.size:
+            self._cells = np.zeros(max(size, 2 * self._cells.size), dtype=np.int64)
+        return self._cells
+
+    def keep(
+        self, kept: int, start: int, goal: int, moves: int, belief: MapBelief, claimed: np.ndarray
+    ) -> None:
+        """``kept`` cells were written at ``room``'s (-1: the pass stopped short)."""
+        if kept < 0:
+            self._goal = -1
+            return
+        self._goal, self._start, self._moves = goal, start, moves
+        self._since, self._kept, self._claimed = belief.added_count, kept, claimed
+
+
 class TargetSearch:
     """Scratch arrays for ``_search``, reused across calls on one belief."""
 
@@ -441,6 +509,7 @@ class TargetSearch:
         self._rivals = np.zeros(self.RIVALS + 1, dtype=np.int64)
         #: The candidates ``_search``'s shortcuts look at one by one (at most its size).
         self._few = np.zeros(self.FEW, dtype=np.int64)
+        self._no_near = np.zeros(0, dtype=np.int64)  # ``rivals_listed`` keeps none
         #: A second ``seen``, ``queue`` and ``parent``, for ``_search``.
         self._spare = tuple(np.zeros(size, dtype=np.int32) for _ in range(3))
         self._pool_mask = np.zeros(size, dtype=np.uint8)
@@ -501,9 +570,13 @@ class TargetSearch:
         energy: tuple[float, float, float, float, float],
         others: tuple[np.ndarray, np.ndarray],
         hold: int,
+        claimed: np.ndarray,
+        way_memo: WayMemo | None,
     ) -> tuple[int, int, Sequence[int]] | None:
         """What the search from ``start`` would return, found without it when the
         agent is on ``way`` to ``goal``; None when only the search can tell.
+        ``claimed``: the cells masked out as claimed by others; ``way_memo``: the
+        agent's candidates near its way, used and renewed here.
 
         The search returns the first uncontested candidate it reaches (rank 0)
         or, when there is none, the first of the next rank. ``goal`` ranks so
@@ -562,13 +635,18 @@ class TargetSearch:
         square = 2 * moves * moves
         if rank == 0 and listed.size * self.LIST_COST < square:
             # Cells off ``listed`` are surely contested: rank 0 needs only these.
-            count = rivals_listed(candidate, listed, start, goal, *test)
-        elif self.belief.uncovered_count * self.LIST_COST < square:
-            full = self.uncovered_list[: self.belief.uncovered_count]
-            count = rivals_listed(candidate, full, start, goal, *test)
+            count = rivals_listed(candidate, listed, start, goal, *test, self._no_near)[0]
         else:
-            near = self._near[: in_square(candidate, start, moves, stride, self._near)]
-            count = rivals_listed(candidate, near, start, goal, *test)
+            pool = None if way_memo is None else way_memo.listed(start, goal, moves, self.belief)
+            if pool is None:
+                if self.belief.uncovered_count * self.LIST_COST < square:
+                    pool = self.uncovered_list[: self.belief.uncovered_count]
+                else:
+                    pool = self._near[: in_square(candidate, start, moves, stride, self._near)]
+            room = self._no_near if way_memo is None else way_memo.room(pool.size)
+            count, kept = rivals_listed(candidate, pool, start, goal, *test, room)
+            if way_memo is not None:
+                way_memo.keep(kept, start, goal, moves, self.belief, claimed)
         if count == self.RIVALS:
             return None  # too many to look at one by one: the search is as quick
         if count == 0 and self._still_shortest(start, goal, moves, known_at):
@@ -631,9 +709,9 @@ class TargetSearch:
         candidate, full = self.candidate, self.uncovered_list[: self.belief.uncovered_count]
         found = self._rivals[:-1]
         team = (self.belief.stride, others[0], others[1], self.home, energy, found)
-        if rivals_listed(candidate, full, start, -1, UNREACHED, hold + 1, *team):
+        if rivals_listed(candidate, full, start, -1, UNREACHED, hold + 1, *team, self._no_near)[0]:
             return False, None  # some may rank better
-        count = rivals_listed(candidate, full, start, -1, UNREACHED, 0, *team)
+        count = rivals_listed(candidate, full, start, -1, UNREACHED, 0, *team, self._no_near)[0]
         if count == self.RIVALS:
             return False, None
         targets = found[:count]
@@ -687,11 +765,13 @@ class TargetSearch:
         pool: Iterable[int] | None = None,
         memo: HorizonMemo | None = None,
         hint: tuple[int, Sequence[int], tuple[int, int] | None] | None = None,
+        way_memo: WayMemo | None = None,
     ) -> tuple[int, int, Sequence[int]] | None:
         """The best target as ``(rank, cell, path)`` among ``pool`` (None: the
         uncovered cells), ranked against the ``others`` (rows, columns) agents;
         ``excluded`` cells (claimed by other agents) are not candidates.
-        ``memo``: the searching agent's, when ``pool`` is None. ``hint``: the
+        ``memo`` and ``way_memo``: the searching agent's, when ``pool`` is None
+        (``way_memo`` serves the ``hint``). ``hint``: the
         target the agent was heading for, its way there and the
         ``MapBelief.stamp`` when that was last known to be a shortest way, if
         ever (``pool`` None only): when it is certain what the search would
@@ -719,8 +799,9 @@ class TargetSearch:
             if hint is not None and pool is None:
                 goal, way, known_at = hint
                 sure = self._confirm(
-                    start, goal, way, known_at, listed, margin, memo, energy, others, hold
-                )
+                    start, goal, way, known_at, listed, margin, memo, energy, others, hold,
+                    claimed, way_memo,
+                )  # fmt: skip
                 if sure is not None:
                     return sure
                 if margin >= 0 and memo is not None:

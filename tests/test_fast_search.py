@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from gcs.simulate import simulate
 from planner import bounded_search, fast_search
 from planner.belief import UNREACHED, MapBelief
-from planner.fast_search import HorizonMemo, TargetSearch, Team, _uncontested_horizon
+from planner.fast_search import HorizonMemo, TargetSearch, Team, WayMemo, _uncontested_horizon
 from planner.grid import CellState
 from planner.paths import bfs_distances
 from sitl_mock import mapgen
@@ -685,3 +685,90 @@ def test_plans_are_the_same_without_confirmations(monkeypatch, grid, agents: int
     monkeypatch.setattr(TargetSearch, "_confirm", lambda self, *args: None)
     assert _tracks_digest(grid, agents) == confirmed
     assert with_confirmations < len(searches)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    moves=st.integers(1, 30),
+    walked=st.integers(0, 8),
+    shortened=st.integers(0, 8),
+)
+def test_way_memo_holds_every_candidate_in_reach(
+    seed: int, moves: int, walked: int, shortened: int
+) -> None:
+    """After the agent walked on, cells were found and covered and claims changed,
+    the memo hands out every candidate within the way's length now (by Manhattan
+    distance), or says it cannot tell: when the agent came farther than the way
+    shortened, or heads for another target."""
+    rng = np.random.default_rng(seed)
+    belief = MapBelief((SIDE, SIDE), (0, 0))
+    for r, c in rng.integers(0, SIDE, size=(400, 2)):
+        belief.mark_free(belief.index((int(r), int(c))))
+    search = TargetSearch(belief)
+    candidate, stride = search.candidate, belief.stride
+    uncovered = search.uncovered_list[: belief.uncovered_count].copy()
+    start, goal = (int(v) for v in rng.choice(uncovered, 2, replace=False))
+    claimed = rng.choice(uncovered, 5, replace=False).astype(np.int64)
+    claimed = claimed[claimed != goal]
+    home = np.frombuffer(belief.charger_dist, dtype=np.int32)
+    energy = (100.0, 0.0, 0.0, 0.0, 100.0)
+    nobody = np.zeros(0, dtype=np.int64)
+    memo = WayMemo()
+    candidate[claimed] = 0
+    room = memo.room(uncovered.size)
+    _, kept = bounded_search.rivals_listed(
+        candidate, uncovered, start, goal, moves, 0, stride, nobody, nobody, home, energy,
+        search._rivals[:-1], room,
+    )  # fmt: skip
+    candidate[claimed] = 1  # released: uncovered, as they were
+    memo.keep(kept, start, goal, moves, belief, claimed)
+    # The agent walks on (perhaps through the unknown: only its distance counts).
+    r, c = divmod(start, stride)
+    for _ in range(walked):
+        dr, dc = ((1, 0), (-1, 0), (0, 1), (0, -1))[int(rng.integers(4))]
+        if 1 <= r + dr <= SIDE and 1 <= c + dc <= SIDE:
+            r, c = r + dr, c + dc
+    now = r * stride + c
+    for rr, cc in rng.integers(0, SIDE, size=(60, 2)):
+        belief.mark_free(belief.index((int(rr), int(cc))))
+    for v in rng.choice(search.uncovered_list[: belief.uncovered_count], 20, replace=False):
+        if int(v) not in (now, goal):
+            belief.cover(belief.cell(int(v)), 1)
+    still = claimed[rng.random(claimed.size) < 0.5]
+    moves_now = max(0, moves - shortened)
+    pool = memo.listed(now, goal, moves_now, belief)
+    came = abs(r - start // stride) + abs(c - start % stride)
+    assert memo.listed(now, goal + 1, moves_now, belief) is None
+    if came > moves - moves_now:
+        assert pool is None
+        return
+    assert pool is not None
+    held = set(pool.tolist())
+    for v in search.uncovered_list[: belief.uncovered_count].tolist():
+        near = abs(v // stride - r) + abs(v % stride - c) <= moves_now
+        if near and v != goal and v not in still:
+            assert v in held, f"candidate {belief.cell(v)} in reach was not handed out"
+
+
+@pytest.mark.parametrize(
+    ("grid", "agents"),
+    [(mapgen.open_field(60, 60, 2), 12), (mapgen.rooms(60, 60, 5), 9)],
+    ids=["open60-12", "rooms60-9"],
+)
+def test_plans_are_the_same_without_the_way_memo(monkeypatch, grid, agents: int) -> None:
+    """The transit's check passing over the cells kept along its way changes no move,
+    and it does pass over them."""
+    handed_out = []
+    listed = WayMemo.listed
+
+    def counted(self, *args):
+        pool = listed(self, *args)
+        handed_out.append(pool is not None)
+        return pool
+
+    monkeypatch.setattr(WayMemo, "listed", counted)
+    with_memo = _tracks_digest(grid, agents)
+    assert any(handed_out)
+    monkeypatch.setattr(WayMemo, "listed", lambda self, *args: None)
+    assert _tracks_digest(grid, agents) == with_memo
