@@ -228,6 +228,11 @@ class Coordinator:
             Roadmap(self.settings) if self.settings.path_planner == PathPlannerKind.PRM else None
         )
         self._paper_sweep = self.settings.bm_rule == BmRule.PAPER
+        #: Waits in a row after which an agent going home is given way to.
+        self._long_wait = _GIVEN_WAY_AFTER * self.settings.patience
+        #: The agents that have waited that long (and not moved since): mostly none,
+        #: so that ``_kept_waiting_for`` need not look around at every move.
+        self._held_up: set[int] = set()
         policy = self.settings.target_policy
         #: Where a blocked agent looks for a target, in order (``_take_target``).
         self._tiers: tuple[_Tier, ...] = {
@@ -777,6 +782,8 @@ class Coordinator:
             a.path, a.path_known_at = deque(detour), None
             return self._move(a, a.path.popleft())
         a.waited += 1
+        if a.waited == self._long_wait:
+            self._held_up.add(a.id)
         if a.waited >= self.settings.patience:
             self._ask_to_make_way(a, self._agents[blocker])
         return WAIT
@@ -789,13 +796,15 @@ class Coordinator:
         would otherwise take every cell the one going home waits for, one after
         another, for ever.
         """
+        if self._long_wait > 0 and not self._held_up:
+            return False  # nobody has waited that long
         for c in self._agents_beside(index):
             if self._long_held_up_going_home(c) and c.path and c.path[0] == index:
                 return True
         return False
 
     def _long_held_up_going_home(self, a: _Agent) -> bool:
-        return a.mode in _HOMEWARD and a.waited >= _GIVEN_WAY_AFTER * self.settings.patience
+        return a.mode in _HOMEWARD and a.waited >= self._long_wait
 
     def _agents_beside(self, index: int) -> Iterator[_Agent]:
         """The agents in the cells next to ``index`` (N, S, E, W)."""
@@ -935,7 +944,9 @@ class Coordinator:
         return False
 
     def _move(self, a: _Agent, to: int) -> Action:
-        a.waited = 0
+        if a.waited:
+            self._held_up.discard(a.id)
+            a.waited = 0
         a.pending = to
         self._occupy(to, a.id)
         return Action(_MOVE, self.belief.cell(to))
