@@ -440,9 +440,12 @@ class WayMemo:
         self._cells = np.zeros(64, dtype=np.int64)
         self._kept = 0
 
-    def listed(self, start: int, goal: int, moves: int, belief: MapBelief) -> np.ndarray | None:
+    def listed(
+        self, start: int, goal: int, moves: int, belief: MapBelief, most: int
+    ) -> np.ndarray | None:
         """Every candidate within ``moves`` of ``start`` by Manhattan distance, and
-        others, on the way to ``goal``; None when what is kept cannot tell."""
+        others, on the way to ``goal``; None when what is kept cannot tell, or
+        would hand out more than ``most`` cells."""
         if goal != self._goal:
             return None
         stride = belief.stride
@@ -453,6 +456,8 @@ class WayMemo:
             return None
         kept, added = self._kept, belief.added_count - self._since
         size = kept + added + self._claimed.size
+        if size > most:
+            return None
         if size > self._cells.size:
             grown = np.zeros(max(size, 2 * self._cells.size), dtype=np.int64)
             grown[:kept] = self._cells[:kept]
@@ -637,7 +642,11 @@ class TargetSearch:
             # Cells off ``listed`` are surely contested: rank 0 needs only these.
             count = rivals_listed(candidate, listed, start, goal, *test, self._no_near)[0]
         else:
-            pool = None if way_memo is None else way_memo.listed(start, goal, moves, self.belief)
+            # The memo's cells, unless the uncovered cells or the square are fewer.
+            most = min(self.belief.uncovered_count, square // self.LIST_COST)
+            pool = None
+            if way_memo is not None:
+                pool = way_memo.listed(start, goal, moves, self.belief, most)
             if pool is None:
                 if self.belief.uncovered_count * self.LIST_COST < square:
                     pool = self.uncovered_list[: self.belief.uncovered_count]

@@ -737,9 +737,9 @@ def test_way_memo_holds_every_candidate_in_reach(
             belief.cover(belief.cell(int(v)), 1)
     still = claimed[rng.random(claimed.size) < 0.5]
     moves_now = max(0, moves - shortened)
-    pool = memo.listed(now, goal, moves_now, belief)
+    pool = memo.listed(now, goal, moves_now, belief, UNREACHED)
     came = abs(r - start // stride) + abs(c - start % stride)
-    assert memo.listed(now, goal + 1, moves_now, belief) is None
+    assert memo.listed(now, goal + 1, moves_now, belief, UNREACHED) is None
     if came > moves - moves_now:
         assert pool is None
         return
