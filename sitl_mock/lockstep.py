@@ -102,7 +102,7 @@ class LockstepWorld:
 
     def request_charge(self, agent: int) -> None:
         """The agent stays on the pad and wants charge this iteration."""
-        if self.position[agent] != self.grid.charger:
+        if self.position[agent] != self._charger:
             raise WorldError(f"agent {agent} asked to charge away from the pad")
         self._requested.add(agent)
         if agent not in self._queue:
