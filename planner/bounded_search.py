@@ -3,7 +3,7 @@
 A target search (``fast_search``) ranks every candidate against the team; most of
 its work is ruling out candidates that cannot come first. Here are the passes that
 list the few that might, by lower bounds of their distance (the Manhattan
-distance, and the difference of distances home: the charger as a landmark), and
+distance, and the difference of distances from a landmark: ``landmarks``), and
 the searches bounded to the ways to those few, which reach them in the same order,
 from the same parents, as the search over the whole map: so the plans are the
 same, cell for cell.
@@ -16,6 +16,7 @@ from numba import njit
 
 from planner.belief import UNREACHED
 from planner.grid import CellState
+from planner.landmarks import HOME
 
 _FREE = int(CellState.FREE)
 
@@ -28,13 +29,38 @@ JUMP_TRIES = 4
 
 
 @njit(cache=True, nogil=True)
-def way_at_least(u: int, v: int, stride: int, home: np.ndarray) -> int:
+def landmark_gap(u: int, v: int, lands: np.ndarray) -> int:
+    """The largest difference of the two cells' distances from a landmark
+    (``landmarks``: the charger's and the others'), a lower bound of the way
+    between them."""
+    gap = 0
+    for k in range(lands.shape[1]):
+        g = abs(lands[u, k] - lands[v, k])
+        if g > gap:
+            gap = g
+    return gap
+
+
+@njit(cache=True, nogil=True)
+def way_at_least(u: int, v: int, stride: int, lands: np.ndarray) -> int:
     """A lower bound of the moves between cells ``u`` and ``v``: a way is at
     least as long as the Manhattan distance, and as the difference of its
-    ends' distances home (the charger as a landmark: the stronger bound where
-    walls make the way round long)."""
+    ends' distances from any landmark (the stronger bound where walls make
+    the way round long)."""
     apart = abs(u // stride - v // stride) + abs(u % stride - v % stride)
-    return max(apart, abs(home[u] - home[v]))
+    return max(apart, landmark_gap(u, v, lands))
+
+
+@njit(cache=True, nogil=True)
+def way_within(u: int, v: int, moves: int, stride: int, lands: np.ndarray) -> bool:
+    """``way_at_least(u, v) <= moves``, each bound tried in turn (most cells a
+    bounded search looks at fail the first, the Manhattan distance)."""
+    if abs(u // stride - v // stride) + abs(u % stride - v % stride) > moves:
+        return False
+    for k in range(lands.shape[1]):  # noqa: SIM110 (a loop is what numba compiles best)
+        if abs(lands[u, k] - lands[v, k]) > moves:
+            return False
+    return True
 
 
 @njit(cache=True, nogil=True)
@@ -47,7 +73,7 @@ def first_lesser(
     hold: int,
     others_r: np.ndarray,
     others_c: np.ndarray,
-    home: np.ndarray,
+    lands: np.ndarray,
     energy: tuple[float, float, float, float, float],
     found: np.ndarray,
     spare: tuple[np.ndarray, np.ndarray, np.ndarray],
@@ -78,10 +104,10 @@ def first_lesser(
         v = everyone[k]
         if candidate[v] == 0:
             continue
-        mine = way_at_least(v, start, stride, home)
+        mine = way_at_least(v, start, stride, lands)
         if mine >= least:
             continue
-        closer = may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
+        closer = may_rival(v, mine, limit, stride, others_r, others_c, closer, lands, energy)
         if closer < 0:
             least = mine
             closer = 0
@@ -92,13 +118,13 @@ def first_lesser(
         bound = least + slack
         count = rivals_listed(
             candidate, everyone, start, -1, bound, limit, stride, others_r, others_c,
-            home, energy, found, np.empty(0, dtype=np.int64),
+            lands, energy, found, np.empty(0, dtype=np.int64),
         )[0]  # fmt: skip
         if count == found.size:
             return -1, -1, -1
         rank, cell = first_among(
             state, candidate, found[:count], start, stride, bound, 1, hold,
-            others_r, others_c, home, energy, seen, mark + attempt, parent, queue,
+            others_r, others_c, lands, energy, seen, mark + attempt, parent, queue,
         )  # fmt: skip
         if rank >= 0:
             d = 0
@@ -120,7 +146,7 @@ def none_uncontested(
     stride: int,
     others_r: np.ndarray,
     others_c: np.ndarray,
-    home: np.ndarray,
+    lands: np.ndarray,
     energy: tuple[float, float, float, float, float],
     found: np.ndarray,
     spare: tuple[np.ndarray, np.ndarray, np.ndarray],
@@ -139,7 +165,7 @@ def none_uncontested(
     """
     count = rivals_listed(
         candidate, listed, start, -1, UNREACHED, UNREACHED, stride, others_r, others_c,
-        home, energy, found, np.empty(0, dtype=np.int64),
+        lands, energy, found, np.empty(0, dtype=np.int64),
     )[0]  # fmt: skip
     if count == found.size or others_r.size == 0:
         return count == 0  # with nobody else, any candidate it can reach is uncontested
@@ -150,7 +176,7 @@ def none_uncontested(
         bounds[i] = nearest_manhattan(others_r, others_c, t // stride - 1, t % stride - 1)
     seen, queue, parent = spare
     rank, _ = reached_within(
-        state, candidate, targets, bounds, start, stride, 0, 0, others_r, others_c, home,
+        state, candidate, targets, bounds, start, stride, 0, 0, others_r, others_c, lands,
         energy, seen, stamp, parent, queue,
     )  # fmt: skip
     return rank < 0
@@ -165,7 +191,7 @@ def may_rival(
     others_r: np.ndarray,
     others_c: np.ndarray,
     closer: int,
-    home: np.ndarray,
+    lands: np.ndarray,
     energy: tuple[float, float, float, float, float],
 ) -> int:
     """Could candidate ``v``, ``mine`` moves or more away, be a target that no
@@ -186,7 +212,7 @@ def may_rival(
         if abs(r - others_r[j]) + abs(c - others_c[j]) < bar:
             return j
     battery, cost, floor, best_cost, budget = energy
-    back = home[v]
+    back = lands[v, HOME]
     if back >= UNREACHED or 2.0 * back * best_cost > budget:
         return closer
     if battery - cost * (mine + back) < floor:
@@ -205,7 +231,7 @@ def rivals_listed(
     stride: int,
     others_r: np.ndarray,
     others_c: np.ndarray,
-    home: np.ndarray,
+    lands: np.ndarray,
     energy: tuple[float, float, float, float, float],
     found: np.ndarray,
     near: np.ndarray,
@@ -231,10 +257,10 @@ def rivals_listed(
         if keep:
             near[kept] = v
         kept += 1
-        mine = max(mine, abs(home[v] - home[start]))
+        mine = max(mine, landmark_gap(v, start, lands))
         if mine > reach:
             continue
-        closer = may_rival(v, mine, limit, stride, others_r, others_c, closer, home, energy)
+        closer = may_rival(v, mine, limit, stride, others_r, others_c, closer, lands, energy)
         if closer < 0:
             if count == found.size:
                 return count, -1
@@ -275,7 +301,7 @@ def first_among(
     hold: int,
     others_r: np.ndarray,
     others_c: np.ndarray,
-    home: np.ndarray,
+    lands: np.ndarray,
     energy: tuple[float, float, float, float, float],
     seen: np.ndarray,
     stamp: int,
@@ -283,7 +309,7 @@ def first_among(
     queue: np.ndarray,
 ) -> tuple[int, int]:
     """``_search`` when only the ``targets`` (candidates in range, and reached
-    from home) can be what it returns, all within ``bound`` moves: the first
+    from lands) can be what it returns, all within ``bound`` moves: the first
     of them it reaches that the agent can afford and that ranks ``rank`` or
     better, as (rank, cell), or (-1, -1); ``parent`` holds the path there.
 
@@ -298,11 +324,11 @@ def first_among(
         if abs(t // stride - r0) + abs(t % stride - c0) < bound:
             return first_reached(
                 state, candidate, targets, start, stride, bound, rank, hold,
-                others_r, others_c, home, energy, seen, stamp, parent, queue,
+                others_r, others_c, lands, energy, seen, stamp, parent, queue,
             )  # fmt: skip
     return first_tied(
         state, candidate, targets, start, stride, bound, rank, hold,
-        others_r, others_c, home, energy, seen, stamp, parent, queue,
+        others_r, others_c, lands, energy, seen, stamp, parent, queue,
     )  # fmt: skip
 
 
@@ -315,13 +341,13 @@ def target_rank(
     stride: int,
     others_r: np.ndarray,
     others_c: np.ndarray,
-    home: np.ndarray,
+    lands: np.ndarray,
     energy: tuple[float, float, float, float, float],
 ) -> int:
     """The rank of candidate ``v`` reached at ``d`` moves, as ``_search`` ranks it,
     or -1 when it is worse than ``rank`` or the agent cannot afford it there."""
     battery, cost, floor, _, _ = energy
-    if battery - cost * (d + home[v]) < floor:
+    if battery - cost * (d + lands[v, HOME]) < floor:
         return -1
     near = UNREACHED  # nobody else: uncontested
     if others_r.size:
@@ -347,7 +373,7 @@ def first_tied(
     hold: int,
     others_r: np.ndarray,
     others_c: np.ndarray,
-    home: np.ndarray,
+    lands: np.ndarray,
     energy: tuple[float, float, float, float, float],
     seen: np.ndarray,
     stamp: int,
@@ -380,7 +406,7 @@ def first_tied(
         t = targets[i]
         if candidate[t] == 0 or abs(t // stride - r0) + abs(t % stride - c0) != bound:
             continue
-        found = target_rank(t, bound, rank, hold, stride, others_r, others_c, home, energy)
+        found = target_rank(t, bound, rank, hold, stride, others_r, others_c, lands, energy)
         if found >= 0:
             taken[count] = t
             ranks[count] = found
@@ -415,7 +441,7 @@ def first_tied(
             continue
         within = False  # as ``first_reached`` admits cells, by every target
         for i in range(n):
-            if d + way_at_least(v, targets[i], stride, home) <= bound:
+            if way_within(v, targets[i], bound - d, stride, lands):
                 within = True
                 break
         if not within:
@@ -442,7 +468,7 @@ def first_reached(
     hold: int,
     others_r: np.ndarray,
     others_c: np.ndarray,
-    home: np.ndarray,
+    lands: np.ndarray,
     energy: tuple[float, float, float, float, float],
     seen: np.ndarray,
     stamp: int,
@@ -453,7 +479,7 @@ def first_reached(
     bounds = np.full(targets.size, bound, dtype=np.int64)
     return reached_within(
         state, candidate, targets, bounds, start, stride, rank, hold,
-        others_r, others_c, home, energy, seen, stamp, parent, queue,
+        others_r, others_c, lands, energy, seen, stamp, parent, queue,
     )  # fmt: skip
 
 
@@ -469,7 +495,7 @@ def reached_within(
     hold: int,
     others_r: np.ndarray,
     others_c: np.ndarray,
-    home: np.ndarray,
+    lands: np.ndarray,
     energy: tuple[float, float, float, float, float],
     seen: np.ndarray,
     stamp: int,
@@ -513,7 +539,7 @@ def reached_within(
                 j = toward + i
                 if j >= n:
                     j -= n
-                if d + way_at_least(v, targets[j], stride, home) <= bounds[j]:
+                if way_within(v, targets[j], bounds[j] - d, stride, lands):
                     toward = j  # neighbouring cells likely lie on the way to it too
                     within = True
                     break
@@ -532,7 +558,7 @@ def reached_within(
                     break
             if not target:
                 continue
-            found = target_rank(v, d, rank, hold, stride, others_r, others_c, home, energy)
+            found = target_rank(v, d, rank, hold, stride, others_r, others_c, lands, energy)
             if found >= 0:
                 return found, v
     return -1, -1
@@ -540,13 +566,13 @@ def reached_within(
 
 @njit(cache=True, nogil=True)
 def none_between(
-    cells: np.ndarray, start: int, goal: int, moves: int, stride: int, home: np.ndarray
+    cells: np.ndarray, start: int, goal: int, moves: int, stride: int, lands: np.ndarray
 ) -> bool:
     """Does no way from ``start`` to ``goal`` through any of ``cells`` come to less
     than ``moves``, by ``way_at_least``?"""
     for k in range(cells.size):
         v = cells[k]
-        if way_at_least(start, v, stride, home) + way_at_least(v, goal, stride, home) < moves:
+        if way_at_least(start, v, stride, lands) + way_at_least(v, goal, stride, lands) < moves:
             return False
     return True
 

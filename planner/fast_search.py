@@ -22,6 +22,7 @@ from planner.bounded_search import (
     first_among,
     first_lesser,
     in_square,
+    landmark_gap,
     nearest_manhattan,
     none_between,
     none_uncontested,
@@ -29,6 +30,7 @@ from planner.bounded_search import (
     target_rank,
 )
 from planner.grid import CellState
+from planner.landmarks import HOME, Landmarks
 
 _FREE = int(CellState.FREE)
 
@@ -43,14 +45,14 @@ def _uncontested_horizon(
     others_c: np.ndarray,
     margin: int,
     kept: np.ndarray,
-    home: np.ndarray,
+    lands: np.ndarray,
 ) -> tuple[int, int]:
     """The largest distance at which a candidate could still be uncontested.
 
     A candidate ``v`` at path distance ``d`` is uncontested when every other
     agent is at least ``d`` away (Manhattan); as ``d`` is at least the
     Manhattan distance from the start, and the difference of the two cells'
-    distances ``home`` (the charger as a landmark), only candidates that no
+    distances from a landmark (``landmark_gap``), only candidates that no
     other agent is nearer to than that can be, and none farther than its
     distance to the nearest other agent. One pass over the ``listed`` cells
     (those still marked in ``candidate`` count), far cheaper than a search of
@@ -98,7 +100,7 @@ def _uncontested_horizon(
         if (
             candidate[v] != 0
             and nearest_other > horizon
-            and nearest_other >= max(mine, abs(home[v] - home[start]))
+            and nearest_other >= max(mine, landmark_gap(v, start, lands))
         ):
             horizon = nearest_other
     return horizon, count if margin >= 0 else -1
@@ -111,7 +113,7 @@ def _search(
     listed: np.ndarray,
     margin: int,
     kept: np.ndarray,
-    home: np.ndarray,
+    lands: np.ndarray,
     start: int,
     stride: int,
     battery: float,
@@ -171,7 +173,7 @@ def _search(
                 jumped = True
                 rank, v, d = first_lesser(
                     state, candidate, everyone, start, stride, hold, others_r, others_c,
-                    home, energy, found, spare, 8 * stamp,
+                    lands, energy, found, spare, 8 * stamp,
                 )  # fmt: skip
                 if rank >= 0:
                     ours = spare[2]
@@ -182,10 +184,10 @@ def _search(
                     if rank == 0:
                         return 0, v, kept_count
                     horizon, kept_count = _uncontested_horizon(
-                        candidate, listed, start, stride, others_r, others_c, margin, kept, home
+                        candidate, listed, start, stride, others_r, others_c, margin, kept, lands
                     )
                     if d > horizon or none_uncontested(
-                        state, candidate, listed, start, stride, others_r, others_c, home,
+                        state, candidate, listed, start, stride, others_r, others_c, lands,
                         energy, found, spare, 8 * stamp + JUMP_TRIES,
                     ):  # fmt: skip
                         return 1, v, kept_count
@@ -203,12 +205,12 @@ def _search(
             tail += 1
             if candidate[v] == 0:
                 continue
-            back = home[v]
+            back = lands[v, HOME]
             if back < UNREACHED and 2.0 * back * best_cost > budget:
                 continue  # out of range for every agent
             if back >= UNREACHED or battery - cost * (d + back) < floor:
                 continue  # cannot afford it
-            rank = target_rank(v, d, 2, hold, stride, others_r, others_c, home, energy)
+            rank = target_rank(v, d, 2, hold, stride, others_r, others_c, lands, energy)
             if rank == 0:
                 return 0, v, kept_count
             if rank == 1:
@@ -224,10 +226,10 @@ def _search(
             # The first of the next rank: search on only as far as the horizon,
             # or not at all when no candidate within it is uncontested.
             horizon, kept_count = _uncontested_horizon(
-                candidate, listed, start, stride, others_r, others_c, margin, kept, home
+                candidate, listed, start, stride, others_r, others_c, margin, kept, lands
             )
             if d > horizon or none_uncontested(
-                state, candidate, listed, start, stride, others_r, others_c, home,
+                state, candidate, listed, start, stride, others_r, others_c, lands,
                 energy, found, spare, 8 * stamp + JUMP_TRIES + 1,
             ):  # fmt: skip
                 return rank, v, kept_count
@@ -520,6 +522,10 @@ class TargetSearch:
         self._pool_mask = np.zeros(size, dtype=np.uint8)
         self._blocked = np.zeros(size, dtype=np.uint8)
         self.home = np.frombuffer(belief.charger_dist, dtype=np.int32)
+        self.landmarks = Landmarks(belief)
+        #: The distances from the landmarks (``Landmarks.lands``), brought up to
+        #: date at the start of each ``run``.
+        self.lands = self.landmarks.lands
 
     def path(
         self, start: int, goal: int, blocked: Iterable[int] = (), longest: int | None = None
@@ -599,9 +605,9 @@ class TargetSearch:
         if candidate[goal] == 0:
             return None
         moves = len(way)
-        home = self.home
+        lands = self.lands
         battery, cost, floor, best_cost, budget = energy
-        back = int(home[goal])
+        back = int(self.home[goal])
         if back >= UNREACHED or 2.0 * back * best_cost > budget:
             return None
         if battery - cost * (moves + back) < floor:
@@ -622,18 +628,18 @@ class TargetSearch:
             # pass (which also renews the memo's shortlist) finds none in Manhattan
             # terms, or the search's own proof (``none_uncontested``) rules them out.
             horizon, kept = _uncontested_horizon(
-                candidate, listed, start, stride, rows, cols, margin, self._kept, home
+                candidate, listed, start, stride, rows, cols, margin, self._kept, lands
             )
             if kept >= 0 and memo is not None:
                 memo.remember(self._kept[:kept], self.belief)
             if horizon >= 0:
                 self.stamp += 1
                 if not none_uncontested(
-                    self.state, candidate, listed, start, stride, rows, cols, home, energy,
+                    self.state, candidate, listed, start, stride, rows, cols, lands, energy,
                     self._few, self._spare, 8 * self.stamp,
                 ):  # fmt: skip
                     return None
-        test = (moves, limit, stride, rows, cols, home, energy, self._rivals[:-1])
+        test = (moves, limit, stride, rows, cols, lands, energy, self._rivals[:-1])
         # A listed cell costs about LIST_COST cells of the square around the start
         # read row by row (its row and column are worked out by division; the
         # square's few candidates are then passed over as a list).
@@ -688,7 +694,7 @@ class TargetSearch:
             hold,
             others[0],
             others[1],
-            self.home,
+            self.lands,
             energy,
             self.seen,
             self.stamp,
@@ -717,7 +723,7 @@ class TargetSearch:
         """
         candidate, full = self.candidate, self.uncovered_list[: self.belief.uncovered_count]
         found = self._rivals[:-1]
-        team = (self.belief.stride, others[0], others[1], self.home, energy, found)
+        team = (self.belief.stride, others[0], others[1], self.lands, energy, found)
         if rivals_listed(candidate, full, start, -1, UNREACHED, hold + 1, *team, self._no_near)[0]:
             return False, None  # some may rank better
         count = rivals_listed(candidate, full, start, -1, UNREACHED, 0, *team, self._no_near)[0]
@@ -744,8 +750,8 @@ class TargetSearch:
         every other new cell leaves the distances between the cells known
         before as they were) lies where a shorter way could pass: by the
         bounds of ``rivals_listed`` (in rooms, many such cells lie within the
-        Manhattan bound of a way round a wall, but their distance home, as
-        known now, tells that they are too far from one end or the other).
+        Manhattan bound of a way round a wall, but their distances from the
+        landmarks, as known now, tell that they are too far from one end or the other).
         """
         stride = self.belief.stride
         r0, c0, r1, c1 = start // stride, start % stride, goal // stride, goal % stride
@@ -758,7 +764,7 @@ class TargetSearch:
         if blocked != belief.blocked_count:
             return False
         new = self.shortcuts[since : belief.shortcut_count]
-        return none_between(new, start, goal, moves, stride, self.home)
+        return none_between(new, start, goal, moves, stride, self.lands)
 
     def run(
         self,
@@ -786,6 +792,7 @@ class TargetSearch:
         ever (``pool`` None only): when it is certain what the search would
         return, it is returned without one, with a shortest path there
         (perhaps not the one the search finds: the way, when it is as short)."""
+        self.lands = self.landmarks.update()
         margin = -1
         if pool is None:
             mask = self.candidate
@@ -828,7 +835,7 @@ class TargetSearch:
                 listed,
                 margin,
                 self._kept,
-                self.home,
+                self.lands,
                 start,
                 self.belief.stride,
                 battery,

@@ -22,14 +22,20 @@ from tests.checks import make_mission
 SIDE = 40
 
 
+def _lands(search: TargetSearch) -> np.ndarray:
+    """The search's distances from the landmarks, up to date (as ``run`` has them)."""
+    search.lands = search.landmarks.update()
+    return search.lands
+
+
 def _horizon(belief: MapBelief, cells: np.ndarray, slot: int, rows, cols, working) -> int:
     others = working.copy()
     others[slot] = False
     start = belief.index((int(rows[slot]), int(cols[slot])))
     candidate = np.frombuffer(belief.uncovered_mask, dtype=np.uint8)
-    home = np.frombuffer(belief.charger_dist, dtype=np.int32)
+    lands = _lands(TargetSearch(belief))
     horizon, _ = _uncontested_horizon(
-        candidate, cells, start, belief.stride, rows[others], cols[others], -1, cells, home
+        candidate, cells, start, belief.stride, rows[others], cols[others], -1, cells, lands
     )
     return horizon
 
@@ -69,7 +75,7 @@ def test_horizon_shortlist_gives_the_full_pass_horizon(seed: int, agents: int, m
         cols[others],
         16,
         search._kept,
-        search.home,
+        _lands(search),
     )
     if kept < 0:
         return  # nobody else at work: no shortlist is kept (the horizon is unbounded)
@@ -125,7 +131,7 @@ def test_memo_asks_for_a_full_pass_when_a_rival_moved_beyond_the_margin() -> Non
         cols,
         16,
         search._kept,
-        search.home,
+        _lands(search),
     )
     assert far_corner not in search._kept[:kept]
     memo = HorizonMemo(team, 0)
@@ -372,7 +378,8 @@ def test_targets_as_far_as_the_bound_are_found_as_breadth_first(
         search.stamp += 1
         found = walk(
             search.state, search.candidate, targets, start, stride, bound, rank, hold,
-            *others, search.home, energy, search.seen, search.stamp, search.parent, search.queue,
+            *others, _lands(search), energy, search.seen, search.stamp, search.parent,
+            search.queue,
         )  # fmt: skip
         path = search._unwind(start, found[1]) if found[1] >= 0 else None
         results.append((found, path))
@@ -399,7 +406,7 @@ def test_none_uncontested_only_when_none_is(seed: int, agents: int) -> None:
     found = search._rivals[:-1]
     search.stamp += 1
     proved = bounded_search.none_uncontested(
-        search.state, search.candidate, listed, start, stride, *others, search.home,
+        search.state, search.candidate, listed, start, stride, *others, _lands(search),
         energy, found, search._spare, search.stamp,
     )  # fmt: skip
     distance = bfs_distances(belief, start)
@@ -457,7 +464,7 @@ def test_first_lesser_is_the_first_the_search_reaches(seed: int, agents: int, ho
     search.stamp += 1
     rank, cell, d = bounded_search.first_lesser(
         search.state, search.candidate, everyone, start, belief.stride, hold, *others,
-        search.home, energy, roomy, search._spare, 8 * search.stamp,
+        _lands(search), energy, roomy, search._spare, 8 * search.stamp,
     )  # fmt: skip
     order, parent = _breadth_first(belief, start)
     depth = {start: 0}
@@ -481,11 +488,9 @@ def test_first_lesser_is_the_first_the_search_reaches(seed: int, agents: int, ho
     if rank < 0:
         # Left to the search: only when none ranks so, or the first lies beyond
         # the widened bounds (the least lower bound of those that may, plus 7).
-        r0, c0 = belief.cell(start)
         bounds = []
         for v in belief.uncovered:
-            r, c = belief.cell(v)
-            mine = max(abs(r - r0) + abs(c - c0), abs(int(search.home[v] - search.home[start])))
+            mine = bounded_search.way_at_least(v, start, belief.stride, search.lands)
             if in_range(v, mine) and near(v) >= min(mine, hold + 1):
                 bounds.append(mine)
         assert expected is None or expected[2] > min(bounds) + 7
@@ -711,14 +716,14 @@ def test_way_memo_holds_every_candidate_in_reach(
     start, goal = (int(v) for v in rng.choice(uncovered, 2, replace=False))
     claimed = rng.choice(uncovered, 5, replace=False).astype(np.int64)
     claimed = claimed[claimed != goal]
-    home = np.frombuffer(belief.charger_dist, dtype=np.int32)
+    lands = _lands(search)
     energy = (100.0, 0.0, 0.0, 0.0, 100.0)
     nobody = np.zeros(0, dtype=np.int64)
     memo = WayMemo()
     candidate[claimed] = 0
     room = memo.room(uncovered.size)
     _, kept = bounded_search.rivals_listed(
-        candidate, uncovered, start, goal, moves, 0, stride, nobody, nobody, home, energy,
+        candidate, uncovered, start, goal, moves, 0, stride, nobody, nobody, lands, energy,
         search._rivals[:-1], room,
     )  # fmt: skip
     candidate[claimed] = 1  # released: uncovered, as they were
