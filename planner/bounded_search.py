@@ -309,7 +309,7 @@ def first_among(
     queue: np.ndarray,
 ) -> tuple[int, int]:
     """``_search`` when only the ``targets`` (candidates in range, and reached
-    from lands) can be what it returns, all within ``bound`` moves: the first
+    from home) can be what it returns, all within ``bound`` moves: the first
     of them it reaches that the agent can afford and that ranks ``rank`` or
     better, as (rank, cell), or (-1, -1); ``parent`` holds the path there.
 

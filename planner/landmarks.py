@@ -115,7 +115,7 @@ def _farthest(lands: np.ndarray, used: int) -> int:
     for v in range(lands.shape[0]):
         if lands[v, HOME] >= UNREACHED:
             continue
-        near = lands[v, 0]
+        near = lands[v, HOME]
         for col in range(1, used):
             if lands[v, col] < near:
                 near = lands[v, col]
