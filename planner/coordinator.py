@@ -777,14 +777,14 @@ class Coordinator:
                 return WAIT
             a.path.popleft()
             return self._move(a, nxt)
-        idle = self._agents[blocker]
-        if idle.mode == _IDLE and a.waited < self.settings.patience:
+        other = self._agents[blocker]
+        if other.mode == _IDLE and a.waited < self.settings.patience:
             # An idle agent has nowhere to go: it is asked to step aside. Walked
             # round, it stays on the fresh path of the next decision, and the agent
             # paces between the two ways (a crowd held idle in the corridor to the
             # last frontier stalled rooms 300x300 with 50 agents 2500 iterations).
             a.waited += 1
-            self._ask_to_make_way(a, idle)
+            self._ask_to_make_way(a, other)
             return WAIT
         detour = self._detour(a, goal)
         if detour is not None:

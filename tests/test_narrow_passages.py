@@ -138,3 +138,25 @@ def test_an_agent_going_home_waits_for_those_ahead_and_is_not_pushed_aside() -> 
     going_home.make_way_for, going_home.pushed = 2, True
     action = c.decide(1)
     assert action.kind == ActionKind.MOVE and action.to == (3, 2)
+
+
+def test_an_agent_blocked_by_an_idle_one_asks_it_aside_instead_of_walking_round() -> None:
+    """Rooms 300x300 with 50 agents: agents on their way to the last frontier met
+    idle agents in an open corridor, walked round them, and at the next decision
+    took the fresh path through them again: they paced between the two ways for
+    2500 iterations. The idle agent is asked to step aside, and does, off the way."""
+    c = _placed(["#######", "#.....#", "#.....#", "#C#####"], {1: (2, 1), 2: (2, 2)})
+    goal = (2, 4)
+    for cell in [(r, col) for r in (1, 2) for col in range(1, 6)] + [c.belief.charger]:
+        if cell != goal:
+            c.belief.cover(cell, 0)
+    going, idle = c._agents[1], c._agents[2]
+    going.mode, idle.mode = AgentMode.TRANSIT, AgentMode.IDLE
+    going.goal = c.belief.index(goal)
+    assert c.decide(1).kind == ActionKind.WAIT  # not walked round
+    assert c.planned_path(1)[0] == (2, 2) and idle.make_way_for == 1
+    step = c.decide(2)
+    assert step.kind == ActionKind.MOVE and step.to == (1, 2)
+    c.observe(2, (1, 2), {}, 100.0)
+    assert c.decide(2).kind == ActionKind.WAIT  # stays aside while it passes
+    assert c.decide(1).to == (2, 2)
