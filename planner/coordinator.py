@@ -778,23 +778,21 @@ class Coordinator:
             a.path.popleft()
             return self._move(a, nxt)
         other = self._agents[blocker]
-        if other.mode == _IDLE and a.waited < self.settings.patience:
-            # An idle agent has nowhere to go: it is asked to step aside. Walked
-            # round, it stays on the fresh path of the next decision, and the agent
-            # paces between the two ways (a crowd held idle in the corridor to the
-            # last frontier stalled rooms 300x300 with 50 agents 2500 iterations).
-            a.waited += 1
-            self._ask_to_make_way(a, other)
-            return WAIT
-        detour = self._detour(a, goal)
-        if detour is not None:
-            a.path, a.path_known_at = deque(detour), None
-            return self._move(a, a.path.popleft())
+        # An idle agent has nowhere to go: it is asked to step aside at once. Walked
+        # round, it stays on the fresh path of the next decision, and the agent
+        # paces between the two ways (a crowd held idle in the corridor to the last
+        # frontier stalled rooms 300x300 with 50 agents 2500 iterations).
+        ask_now = other.mode == _IDLE and a.waited < self.settings.patience
+        if not ask_now:
+            detour = self._detour(a, goal)
+            if detour is not None:
+                a.path, a.path_known_at = deque(detour), None
+                return self._move(a, a.path.popleft())
         a.waited += 1
         if a.waited == self._long_wait:
             self._held_up.add(a.id)
-        if a.waited >= self.settings.patience:
-            self._ask_to_make_way(a, self._agents[blocker])
+        if ask_now or a.waited >= self.settings.patience:
+            self._ask_to_make_way(a, other)
         return WAIT
 
     def _kept_waiting_for(self, index: int) -> bool:
