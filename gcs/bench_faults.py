@@ -35,6 +35,7 @@ import yaml
 from rich.console import Console
 from rich.table import Table
 
+from gcs.bench_output import write_json
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.log_reader import LogError, read_contents, read_log
@@ -372,12 +373,7 @@ def run_faults(args: argparse.Namespace) -> int:
         with tempfile.TemporaryDirectory(prefix="gcs-bench-faults-") as tmp:
             rows.append(run_case(case, args.mission, args, Path(tmp)))
     console.print(faults_table(rows, mission.name))
-    if args.json:
-        figures = {"machine": platform.platform(), "mission": mission.name, "rows": rows}
-        try:
-            args.json.write_text(json.dumps(figures, indent=1) + "\n")
-        except OSError as exc:
-            raise UsageError(f"--json: cannot write {args.json}: {exc.strerror}") from exc
-        console.print(f"wrote {args.json}")
+    figures = {"machine": platform.platform(), "mission": mission.name, "rows": rows}
+    write_json(args.json, figures, console)
     ok = all(verdict(r).startswith("ok") for r in rows)
     return EXIT_OK if ok else EXIT_FAILED

@@ -29,7 +29,6 @@ import argparse
 import asyncio
 import contextlib
 import dataclasses
-import json
 import logging
 import math
 import multiprocessing
@@ -46,6 +45,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from rich.console import Console
 from rich.table import Table
 
+from gcs.bench_output import write_json
 from gcs.errors import EXIT_OK, UsageError
 from gcs.mission import MAX_SYSID, Mission, MissionError, load_mission
 from gcs.percentile import percentile
@@ -578,8 +578,7 @@ def run_mavlink_command(args: argparse.Namespace) -> int:
         f" vehicle(s) (every vehicle >= {KEEP_UP_RATIO:.0%} of its configured rate, physics "
         f"lag p95 <= {args.max_lag_ms:g} ms)"
     )
-    if args.json:
-        args.json.write_text(json.dumps(figures, indent=2))
+    write_json(args.json, figures, console)
     return EXIT_OK
 
 

@@ -37,6 +37,7 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
+from gcs.bench_output import positive_numbers, write_json
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.mission import (
@@ -110,16 +111,6 @@ def register_perf(which: argparse._SubParsersAction) -> None:  # type: ignore[ty
     p.add_argument("--skip-live", action="store_true", help="only the planner cases")
     p.add_argument("--json", type=Path, help="also write the figures to this JSON file")
     p.set_defaults(func=run_perf)
-
-
-def _numbers(text: str, what: str, kind: type = int) -> list[Any]:
-    try:
-        values = [kind(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise UsageError(f"--{what}: expected comma-separated numbers, got {text!r}") from None
-    if not values or any(v <= 0 for v in values):
-        raise UsageError(f"--{what}: expected positive numbers, got {text!r}")
-    return values
 
 
 # -- the offline planner ---------------------------------------------------------------
@@ -462,9 +453,9 @@ def goals_table(found: list[Goal]) -> Table:
 
 
 def run_perf(args: argparse.Namespace) -> int:
-    sizes = _numbers(args.sizes, "sizes")
-    agents = _numbers(args.agents, "agents")
-    vehicles = _numbers(args.vehicles, "vehicles")
+    sizes = positive_numbers(args.sizes, "sizes")
+    agents = positive_numbers(args.agents, "agents")
+    vehicles = positive_numbers(args.vehicles, "vehicles")
     kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
     unknown = [k for k in kinds if k not in GENERATORS]
     if unknown or not kinds:
@@ -497,11 +488,6 @@ def run_perf(args: argparse.Namespace) -> int:
     if found:
         figures["goals"] = [asdict(goal) for goal in found]
         console.print(goals_table(found))
-    if args.json:
-        try:
-            args.json.write_text(json.dumps(figures, indent=1) + "\n")
-        except OSError as exc:
-            raise UsageError(f"--json: cannot write {args.json}: {exc.strerror}") from exc
-        console.print(f"wrote {args.json}")
+    write_json(args.json, figures, console)
     ok = all(_complete(row) for row in planner_rows + live_rows)
     return EXIT_OK if ok else EXIT_FAILED

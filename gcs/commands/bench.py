@@ -10,7 +10,6 @@ that maps of slightly different size compare fairly.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import platform
 from dataclasses import dataclass
@@ -20,7 +19,9 @@ from rich.table import Table
 
 from gcs.bench_faults import register_faults
 from gcs.bench_mavlink import register_mavlink
+from gcs.bench_output import write_json
 from gcs.bench_perf import register_perf
+from gcs.bench_plans import register_plans
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.mission import Mission, MissionError, load_mission
@@ -94,6 +95,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     paper.set_defaults(func=run_paper)
     register_mavlink(which)
     register_perf(which)
+    register_plans(which)
     register_faults(which)
 
 
@@ -259,6 +261,5 @@ def run_paper(args: argparse.Namespace) -> int:
         f"* the paper's map is not published; its ratios use our map's {bob_free} free cells."
     )
     figures["table2"] = rows2
-    if args.json:
-        args.json.write_text(json.dumps(figures, indent=2))
+    write_json(args.json, figures, console)
     return EXIT_OK if ok else EXIT_FAILED

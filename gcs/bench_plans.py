@@ -1,0 +1,356 @@
+"""``gcs bench plans``: compare planner settings on many generated maps.
+
+Runs the planner with its default settings (or ``--base``) and with the
+settings changed by ``--set``, on every map of ``--kinds`` x ``--sizes`` x
+``--seeds`` with every fleet of ``--agents``, and prints each run's path per
+free cell and iterations, the variant's ratios to the base, whether the plan
+is the same cell for cell, and the geometric mean of the ratios per map kind,
+size and fleet and over all runs. The battery is set as in ``gcs bench perf``
+(a round trip to the farthest cell costs two thirds of the usable charge).
+
+A crowd's plan is chaotic (one different decision early changes everything
+after it), so a change is judged on the means of many maps, never on one.
+The exit status is 1 when a run did not cover its map or lost a vehicle.
+"""
+
+from __future__ import annotations
+
+import argparse
+import enum
+import hashlib
+import math
+import multiprocessing
+import os
+import platform
+import types
+import typing
+from collections import defaultdict
+from collections.abc import Iterator, Sequence
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import yaml
+from rich.console import Console
+from rich.table import Table
+
+from gcs.bench_output import positive_numbers, write_json
+from gcs.bench_perf import case_mission
+from gcs.console import output_console
+from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
+from gcs.simulate import SimOptions, planner_settings, simulate
+from planner.settings import PlannerSettings
+from sitl_mock import mapgen
+
+GENERATORS = {"rooms": mapgen.rooms, "caves": mapgen.caves, "open": mapgen.open_field}
+#: Settings that come from the mission, not from the strategy being compared.
+MISSION_SETTINGS = frozenset({"cell_size_m", "reserve_pct", "seed"})
+
+
+@dataclass(frozen=True)
+class PlanCase:
+    kind: str
+    size: int
+    agents: int
+    seed: int
+
+
+def register_plans(which: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = which.add_parser(
+        "plans",
+        help="compare planner settings (path, iterations) on many generated maps",
+        description=__doc__.split("\n\n", 1)[1] if __doc__ else None,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=(
+            "example: gcs bench plans --sizes 100,150 --agents 20,50 --set hold_radius=8\n"
+            f"settings: {', '.join(sorted(strategy_fields()))}"
+        ),
+    )
+    p.add_argument("--kinds", default="rooms,caves,open", help="map kinds (default: all three)")
+    p.add_argument("--sizes", default="100", help="map sides in cells (default 100)")
+    p.add_argument("--agents", default="20,50", help="fleet sizes (default 20,50)")
+    p.add_argument("--seeds", default="1,2,3,4", help="map seeds (default 1,2,3,4)")
+    p.add_argument(
+        "--set",
+        dest="changes",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a planner setting of the variant (repeat for several); none: the base alone",
+    )
+    p.add_argument(
+        "--base",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a planner setting of the base (default: the planner's defaults)",
+    )
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="runs at once, each in a process of its own (default: one per core)",
+    )
+    p.add_argument("--json", type=Path, help="also write every run's figures to this JSON file")
+    p.set_defaults(func=run_plans)
+
+
+# -- the settings compared -------------------------------------------------------------
+
+
+def strategy_fields() -> dict[str, Any]:
+    """The planner settings a strategy may change, with their types."""
+    hints = typing.get_type_hints(PlannerSettings)
+    return {
+        f.name: hints[f.name] for f in fields(PlannerSettings) if f.name not in MISSION_SETTINGS
+    }
+
+
+def _coerce(key: str, kind: Any, value: Any) -> Any:
+    """``value`` (as YAML read it) as a value of the setting's type ``kind``."""
+    options = typing.get_args(kind) if isinstance(kind, types.UnionType) else (kind,)
+    if value is None and type(None) in options:
+        return None
+    for option in options:
+        if isinstance(option, type) and issubclass(option, enum.Enum):
+            try:
+                return option(value)
+            except ValueError:
+                choices = ", ".join(str(m.value) for m in option)
+                raise ValueError(f"{key}: choose from {choices}, got {value!r}") from None
+        if option is bool and isinstance(value, bool):
+            return value
+        if option is int and isinstance(value, int) and not isinstance(value, bool):
+            return value
+        if option is float and isinstance(value, int | float) and not isinstance(value, bool):
+            return float(value)
+    raise ValueError(f"{key}: expected {_type_name(kind)}, got {value!r}")
+
+
+def _type_name(kind: Any) -> str:
+    options = typing.get_args(kind) if isinstance(kind, types.UnionType) else (kind,)
+    return " or ".join("null" if o is type(None) else o.__name__ for o in options)
+
+
+def parse_settings(pairs: Sequence[str], what: str) -> dict[str, Any]:
+    """``KEY=VALUE`` pairs as planner setting overrides, checked as the planner checks them."""
+    known = strategy_fields()
+    overrides: dict[str, Any] = {}
+    for pair in pairs:
+        key, sep, text = pair.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise UsageError(f"--{what}: expected KEY=VALUE, got {pair!r}")
+        if key not in known:
+            raise UsageError(f"--{what}: unknown setting {key!r}; choose from {', '.join(known)}")
+        try:
+            overrides[key] = _coerce(key, known[key], yaml.safe_load(text))
+        except yaml.YAMLError:
+            raise UsageError(f"--{what}: cannot read the value of {pair!r}") from None
+        except ValueError as exc:
+            raise UsageError(f"--{what}: {exc}") from None
+    try:
+        PlannerSettings(**overrides)
+    except ValueError as exc:
+        raise UsageError(f"--{what}: {exc}") from None
+    return overrides
+
+
+# -- the runs --------------------------------------------------------------------------
+
+
+def run_case(case: PlanCase, overrides: dict[str, Any]) -> dict[str, Any]:
+    """One run: the figures compared, and a digest of every agent's track (equal
+    digests: the same plan, cell for cell)."""
+    grid = GENERATORS[case.kind](case.size, case.size, case.seed)
+    mission = case_mission(grid, case.agents, f"{case.kind}{case.size}-{case.seed}")
+    settings = planner_settings(mission, 0, **overrides)
+    result = simulate(mission, SimOptions(settings=settings))
+    tracks = hashlib.sha256(repr([a.track for a in result.agents]).encode()).hexdigest()
+    return {
+        **asdict(case),
+        "free_cells": result.free_cells,
+        "path_per_free_cell": result.total_path_m / max(1, result.free_cells - 1),
+        "iterations": result.iterations,
+        "charges": sum(a.charges for a in result.agents),
+        "planner_s": result.planner_s,
+        "complete": result.complete,
+        "lost": result.lost_agents,
+        "tracks": tracks[:16],
+    }
+
+
+def _run(job: tuple[PlanCase, str, dict[str, Any]]) -> tuple[str, dict[str, Any]]:
+    case, label, overrides = job
+    return label, run_case(case, overrides)
+
+
+def run_all(
+    cases: Sequence[PlanCase],
+    strategies: dict[str, dict[str, Any]],
+    jobs: int,
+    progress: Console | None = None,
+) -> Iterator[tuple[str, dict[str, Any]]]:
+    """Every case under every strategy, ``jobs`` at once, as they finish."""
+    work = [(case, label, overrides) for case in cases for label, overrides in strategies.items()]
+    if jobs <= 1:
+        finished: Iterator[tuple[str, dict[str, Any]]] = map(_run, work)
+        pool = None
+    else:
+        pool = multiprocessing.get_context("fork").Pool(min(jobs, len(work)))
+        finished = pool.imap_unordered(_run, work)
+    try:
+        for done, (label, row) in enumerate(finished, 1):
+            if progress is not None:
+                progress.print(
+                    f"[{done}/{len(work)}] {label}: {row['kind']} {row['size']}x{row['size']} "
+                    f"seed {row['seed']}, {row['agents']} agents: "
+                    f"{row['path_per_free_cell']:.3f} m per free cell, "
+                    f"{row['iterations']} iterations",
+                    soft_wrap=True,
+                    highlight=False,
+                )
+            yield label, row
+    finally:
+        if pool is not None:
+            pool.terminate()
+            pool.join()
+
+
+# -- the comparison --------------------------------------------------------------------
+
+
+def geometric_mean(values: Sequence[float]) -> float:
+    return math.exp(sum(math.log(v) for v in values) / len(values))
+
+
+def _key(row: dict[str, Any]) -> tuple[str, int, int, int]:
+    return row["kind"], row["size"], row["agents"], row["seed"]
+
+
+def compare(base: list[dict[str, Any]], variant: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Per case: the variant's ratios to the base, and whether the plan is the same."""
+    by_case = {_key(row): row for row in base}
+    pairs = []
+    for row in sorted(variant, key=_key):
+        was = by_case[_key(row)]
+        pairs.append(
+            {
+                **{k: row[k] for k in ("kind", "size", "agents", "seed")},
+                "path_ratio": row["path_per_free_cell"] / was["path_per_free_cell"],
+                "iterations_ratio": row["iterations"] / was["iterations"],
+                "planner_s_ratio": row["planner_s"] / max(was["planner_s"], 1e-9),
+                "same_plan": row["tracks"] == was["tracks"],
+            }
+        )
+    return pairs
+
+
+def summarise(pairs: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Geometric means of the ratios by map kind, size and fleet, then over all."""
+    groups: dict[str, list[dict[str, Any]]] = defaultdict(list)
+    for p in pairs:
+        groups[f"{p['kind']} {p['size']}x{p['size']}, {p['agents']} agents"].append(p)
+    groups["all"] = pairs
+    return [
+        {
+            "group": name,
+            "runs": len(members),
+            "path_ratio": geometric_mean([p["path_ratio"] for p in members]),
+            "iterations_ratio": geometric_mean([p["iterations_ratio"] for p in members]),
+            "planner_s_ratio": geometric_mean([p["planner_s_ratio"] for p in members]),
+            "same_plans": sum(p["same_plan"] for p in members),
+        }
+        for name, members in groups.items()
+    ]
+
+
+def runs_table(rows: dict[str, list[dict[str, Any]]], pairs: list[dict[str, Any]]) -> Table:
+    """A row per case: each strategy's path per free cell and iterations (and with a
+    variant, its ratios to the base and whether the plan is the same)."""
+    table = Table(title="runs (path: metres per free cell)")
+    table.add_column("map")
+    for name in ("seed", "agents"):
+        table.add_column(name, justify="right")
+    for label in rows:
+        for name in ("path", "iterations"):
+            table.add_column(f"{label} {name}", justify="right")
+    if pairs:
+        for name in ("path ratio", "iterations ratio", "same plan"):
+            table.add_column(name, justify="right")
+    by_label = {label: {_key(r): r for r in found} for label, found in rows.items()}
+    ratios = {_key(p): p for p in pairs}
+    for key in sorted(by_label["base"]):
+        kind, size, agents, seed = key
+        cells = [f"{kind} {size}x{size}", str(seed), str(agents)]
+        for found in by_label.values():
+            r = found[key]
+            path = f"{r['path_per_free_cell']:.3f}"
+            if not r["complete"]:
+                path += " [red]incomplete[/]"
+            if r["lost"]:
+                path += f" [red]{r['lost']} lost[/]"
+            cells += [path, str(r["iterations"])]
+        if pairs:
+            p = ratios[key]
+            same = "yes" if p["same_plan"] else "no"
+            cells += [f"{p['path_ratio']:.3f}", f"{p['iterations_ratio']:.3f}", same]
+        table.add_row(*cells)
+    return table
+
+
+def summary_table(summary: list[dict[str, Any]]) -> Table:
+    table = Table(title="variant / base, geometric means")
+    table.add_column("group")
+    for name in ("runs", "path", "iterations", "planner s", "same plans"):
+        table.add_column(name, justify="right")
+    for s in summary:
+        table.add_row(
+            s["group"],
+            str(s["runs"]),
+            f"{s['path_ratio']:.3f}",
+            f"{s['iterations_ratio']:.3f}",
+            f"{s['planner_s_ratio']:.2f}",
+            f"{s['same_plans']}/{s['runs']}",
+        )
+    return table
+
+
+def run_plans(args: argparse.Namespace) -> int:
+    kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
+    if not kinds or any(k not in GENERATORS for k in kinds):
+        raise UsageError(f"--kinds: choose from {', '.join(GENERATORS)}, got {args.kinds!r}")
+    if args.jobs < 1:
+        raise UsageError("--jobs must be at least 1")
+    sizes = positive_numbers(args.sizes, "sizes")
+    if min(sizes) < mapgen.MIN_SIZE:
+        raise UsageError(f"--sizes: maps are at least {mapgen.MIN_SIZE} cells a side")
+    cases = [
+        PlanCase(kind, size, agents, seed)
+        for kind in kinds
+        for size in sizes
+        for agents in positive_numbers(args.agents, "agents")
+        for seed in positive_numbers(args.seeds, "seeds")
+    ]
+    base = parse_settings(args.base, "base")
+    strategies = {"base": base}
+    if args.changes:
+        strategies["variant"] = base | parse_settings(args.changes, "set")
+    console = output_console(quiet=False)
+    rows: dict[str, list[dict[str, Any]]] = {label: [] for label in strategies}
+    for label, row in run_all(cases, strategies, args.jobs, Console(stderr=True)):
+        rows[label].append(row)
+    pairs = compare(rows["base"], rows["variant"]) if "variant" in rows else []
+    console.print(runs_table(rows, pairs))
+    figures: dict[str, Any] = {
+        "machine": platform.platform(),
+        "strategies": {label: {k: str(v) for k, v in s.items()} for label, s in strategies.items()},
+        "runs": rows,
+    }
+    if pairs:
+        figures["pairs"] = pairs
+        figures["summary"] = summarise(pairs)
+        console.print(summary_table(figures["summary"]))
+    write_json(args.json, figures, console)
+    ok = all(r["complete"] and not r["lost"] for found in rows.values() for r in found)
+    return EXIT_OK if ok else EXIT_FAILED

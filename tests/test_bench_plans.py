@@ -1,0 +1,121 @@
+"""``gcs bench plans``: strategies compared on generated maps, end to end on tiny ones."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from gcs.bench_plans import parse_settings, summarise
+from gcs.cli import main
+from gcs.errors import UsageError
+from planner.settings import BmRule
+
+pytestmark = pytest.mark.timeout(120)
+
+TINY = ["--sizes", "24", "--agents", "3", "--seeds", "1,2", "--jobs", "2"]
+
+
+def test_a_variant_is_compared_run_by_run_and_in_the_mean(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "plans.json"
+    args = ["bench", "plans", *TINY, "--kinds", "rooms,open", "--set", "hold_radius=0"]
+    assert main([*args, "--json", str(out)]) == 0
+    figures = json.loads(out.read_text())
+    base, variant = figures["runs"]["base"], figures["runs"]["variant"]
+    assert len(base) == len(variant) == 4
+    for row in base + variant:
+        assert row["complete"] and row["lost"] == 0
+    assert figures["strategies"]["variant"] == {"hold_radius": "0"}
+    key = lambda r: (r["kind"], r["seed"])  # noqa: E731
+    by_case = {key(r): r for r in base}
+    for pair in figures["pairs"]:
+        was = by_case[key(pair)]
+        now = next(r for r in variant if key(r) == key(pair))
+        assert pair["path_ratio"] == pytest.approx(
+            now["path_per_free_cell"] / was["path_per_free_cell"]
+        )
+        assert pair["same_plan"] == (now["tracks"] == was["tracks"])
+    (everything,) = (s for s in figures["summary"] if s["group"] == "all")
+    ratios = [p["path_ratio"] for p in figures["pairs"]]
+    assert everything["path_ratio"] == pytest.approx(math.prod(ratios) ** (1 / len(ratios)))
+    printed = capsys.readouterr().out
+    assert "geometric means" in printed and "rooms 24x24" in printed
+
+
+def test_the_same_settings_give_the_same_plans(tmp_path: Path) -> None:
+    """The base run again as the variant (a setting at its default): cell for cell the
+    same plan, and ratios of 1; a speed-only change is checked this way."""
+    out = tmp_path / "plans.json"
+    args = ["bench", "plans", *TINY, "--kinds", "caves", "--set", "patience=2"]
+    assert main([*args, "--json", str(out)]) == 0
+    (everything,) = (s for s in json.loads(out.read_text())["summary"] if s["group"] == "all")
+    assert everything["same_plans"] == everything["runs"] == 2
+    assert everything["path_ratio"] == everything["iterations_ratio"] == 1.0
+
+
+def test_the_base_alone_prints_its_runs(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "plans.json"
+    assert main(["bench", "plans", *TINY, "--kinds", "open", "--json", str(out)]) == 0
+    figures = json.loads(out.read_text())
+    assert list(figures["runs"]) == ["base"] and "pairs" not in figures
+    assert "geometric means" not in capsys.readouterr().out
+
+
+def test_settings_are_read_as_their_types() -> None:
+    parsed = parse_settings(
+        ["bm_rule=paper", "hold_radius=8", "resume_pct=90", "charging_slots=null", "spread=false"],
+        "set",
+    )
+    assert parsed == {
+        "bm_rule": BmRule.PAPER,
+        "hold_radius": 8,
+        "resume_pct": 90.0,
+        "charging_slots": None,
+        "spread": False,
+    }
+
+
+@pytest.mark.parametrize(
+    ("pair", "says"),
+    [
+        ("hold_radius", "expected KEY=VALUE"),
+        ("speed=3", "unknown setting 'speed'"),
+        ("reserve_pct=10", "unknown setting 'reserve_pct'"),  # the mission's, not a strategy's
+        ("bm_rule=zigzag", "choose from paper, tight"),
+        ("hold_radius=1.5", "expected int"),
+        ("spread=3", "expected bool"),
+        ("far_transit_recheck=-1", "must not be negative"),
+        ("hold_radius=[1", "cannot read the value"),
+    ],
+)
+def test_a_bad_setting_is_a_usage_error_that_names_it(pair: str, says: str) -> None:
+    with pytest.raises(UsageError, match="--set: .*" + says.replace("[", r"\[")):
+        parse_settings([pair], "set")
+
+
+def test_bad_options_exit_2_before_any_run(capsys) -> None:
+    assert main(["bench", "plans", "--kinds", "mazes"]) == 2
+    assert main(["bench", "plans", "--sizes", "3"]) == 2
+    assert main(["bench", "plans", "--jobs", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "--kinds: choose from rooms, caves, open" in err
+    assert "at least 5 cells a side" in err
+    assert "[1/" not in err  # nothing ran
+
+
+def test_means_are_taken_per_group_and_over_all() -> None:
+    pairs = [
+        {"kind": "rooms", "size": 9, "agents": 2, "path_ratio": r, "iterations_ratio": 1.0}
+        | {"planner_s_ratio": 1.0, "same_plan": False}
+        for r in (0.5, 2.0)
+    ] + [
+        {"kind": "open", "size": 9, "agents": 2, "path_ratio": 4.0, "iterations_ratio": 2.0}
+        | {"planner_s_ratio": 1.0, "same_plan": True}
+    ]
+    summary = {s["group"]: s for s in summarise(pairs)}
+    assert summary["rooms 9x9, 2 agents"]["path_ratio"] == pytest.approx(1.0)
+    assert summary["open 9x9, 2 agents"]["same_plans"] == 1
+    assert summary["all"]["path_ratio"] == pytest.approx(4.0 ** (1 / 3))
+    assert summary["all"]["runs"] == 3
