@@ -22,6 +22,7 @@ import math
 import multiprocessing
 import os
 import platform
+import signal
 import types
 import typing
 from collections import defaultdict
@@ -37,7 +38,7 @@ from rich.table import Table
 from gcs.bench_output import positive_numbers, write_json
 from gcs.bench_perf import case_mission
 from gcs.console import output_console
-from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
+from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
 from gcs.simulate import SimOptions, planner_settings, simulate
 from planner.settings import PlannerSettings
 from sitl_mock import mapgen
@@ -180,41 +181,38 @@ def run_case(case: PlanCase, overrides: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+def _quiet_worker() -> None:
+    """Ctrl-C is the parent's to handle: it stops the pool and keeps what finished."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _run(job: tuple[PlanCase, str, dict[str, Any]]) -> tuple[str, dict[str, Any]]:
     case, label, overrides = job
     return label, run_case(case, overrides)
 
 
 def run_all(
-    cases: Sequence[PlanCase],
-    strategies: dict[str, dict[str, Any]],
-    jobs: int,
-    progress: Console | None = None,
+    cases: Sequence[PlanCase], strategies: dict[str, dict[str, Any]], jobs: int
 ) -> Iterator[tuple[str, dict[str, Any]]]:
     """Every case under every strategy, ``jobs`` at once, as they finish."""
     work = [(case, label, overrides) for case in cases for label, overrides in strategies.items()]
     if jobs <= 1:
-        finished: Iterator[tuple[str, dict[str, Any]]] = map(_run, work)
-        pool = None
-    else:
-        pool = multiprocessing.get_context("fork").Pool(min(jobs, len(work)))
-        finished = pool.imap_unordered(_run, work)
+        yield from map(_run, work)
+        return
+    pool = multiprocessing.get_context("fork").Pool(min(jobs, len(work)), _quiet_worker)
     try:
-        for done, (label, row) in enumerate(finished, 1):
-            if progress is not None:
-                progress.print(
-                    f"[{done}/{len(work)}] {label}: {row['kind']} {row['size']}x{row['size']} "
-                    f"seed {row['seed']}, {row['agents']} agents: "
-                    f"{row['path_per_free_cell']:.3f} m per free cell, "
-                    f"{row['iterations']} iterations",
-                    soft_wrap=True,
-                    highlight=False,
-                )
-            yield label, row
+        yield from pool.imap_unordered(_run, work)
     finally:
-        if pool is not None:
-            pool.terminate()
-            pool.join()
+        pool.terminate()
+        pool.join()
+
+
+def _progress_line(done: int, total: int, label: str, row: dict[str, Any]) -> str:
+    return (
+        f"[{done}/{total}] {label}: {row['kind']} {row['size']}x{row['size']} "
+        f"seed {row['seed']}, {row['agents']} agents: "
+        f"{row['path_per_free_cell']:.3f} m per free cell, {row['iterations']} iterations"
+    )
 
 
 # -- the comparison --------------------------------------------------------------------
@@ -229,11 +227,14 @@ def _key(row: dict[str, Any]) -> tuple[str, int, int, int]:
 
 
 def compare(base: list[dict[str, Any]], variant: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Per case: the variant's ratios to the base, and whether the plan is the same."""
+    """Per case run under both: the variant's ratios to the base, and whether the plan
+    is the same."""
     by_case = {_key(row): row for row in base}
     pairs = []
     for row in sorted(variant, key=_key):
-        was = by_case[_key(row)]
+        was = by_case.get(_key(row))
+        if was is None:
+            continue  # interrupted before the base run of this case
         pairs.append(
             {
                 **{k: row[k] for k in ("kind", "size", "agents", "seed")},
@@ -280,7 +281,8 @@ def runs_table(rows: dict[str, list[dict[str, Any]]], pairs: list[dict[str, Any]
             table.add_column(name, justify="right")
     by_label = {label: {_key(r): r for r in found} for label, found in rows.items()}
     ratios = {_key(p): p for p in pairs}
-    for key in sorted(by_label["base"]):
+    everywhere = set.intersection(*(set(found) for found in by_label.values()))
+    for key in sorted(everywhere):
         kind, size, agents, seed = key
         cells = [f"{kind} {size}x{size}", str(seed), str(agents)]
         for found in by_label.values():
@@ -338,19 +340,33 @@ def run_plans(args: argparse.Namespace) -> int:
         strategies["variant"] = base | parse_settings(args.changes, "set")
     console = output_console(quiet=False)
     rows: dict[str, list[dict[str, Any]]] = {label: [] for label in strategies}
-    for label, row in run_all(cases, strategies, args.jobs, Console(stderr=True)):
-        rows[label].append(row)
+    progress = Console(stderr=True)
+    interrupted = False
+    total = len(cases) * len(strategies)
+    done = 0
+    try:
+        for label, row in run_all(cases, strategies, args.jobs):
+            rows[label].append(row)
+            done += 1
+            progress.print(_progress_line(done, total, label, row), soft_wrap=True, highlight=False)
+    except KeyboardInterrupt:
+        interrupted = True
+        done = sum(map(len, rows.values()))
+        progress.print(f"interrupted: {done} runs finished are kept", highlight=False)
     pairs = compare(rows["base"], rows["variant"]) if "variant" in rows else []
     console.print(runs_table(rows, pairs))
     figures: dict[str, Any] = {
         "machine": platform.platform(),
         "strategies": {label: {k: str(v) for k, v in s.items()} for label, s in strategies.items()},
         "runs": rows,
+        "interrupted": interrupted,
     }
     if pairs:
         figures["pairs"] = pairs
         figures["summary"] = summarise(pairs)
         console.print(summary_table(figures["summary"]))
     write_json(args.json, figures, console)
+    if interrupted:
+        return EXIT_INTERRUPTED
     ok = all(r["complete"] and not r["lost"] for found in rows.values() for r in found)
     return EXIT_OK if ok else EXIT_FAILED

@@ -13,7 +13,7 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-from gcs.errors import EXIT_BAD_INPUT, UsageError
+from gcs.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, UsageError
 
 #: Subcommand modules, in the order ``--help`` lists them.
 COMMANDS = ("plan", "bench", "map", "run", "report", "status", "mission")
@@ -49,7 +49,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print(f"gcs {args.command}: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import json
 import math
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -61,6 +65,54 @@ def test_the_base_alone_prints_its_runs(tmp_path: Path, capsys) -> None:
     figures = json.loads(out.read_text())
     assert list(figures["runs"]) == ["base"] and "pairs" not in figures
     assert "geometric means" not in capsys.readouterr().out
+
+
+def test_ctrl_c_keeps_the_runs_finished(tmp_path: Path) -> None:
+    """Interrupted with a long run still going: the runs finished so far are printed
+    and written, the exit status is 130, and no worker is left behind."""
+    out = tmp_path / "plans.json"
+    args = ["bench", "plans", "--kinds", "rooms", "--sizes", "24,600", "--agents", "3"]
+    args += ["--seeds", "1", "--jobs", "2", "--set", "hold_radius=0", "--json", str(out)]
+    process = subprocess.Popen(
+        [sys.executable, "-m", "gcs.cli", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert process.stderr is not None
+        deadline = time.monotonic() + 60
+        seen = ""
+        while "[2/4]" not in seen:  # the small map, under both settings
+            assert time.monotonic() < deadline and process.poll() is None, seen
+            seen += process.stderr.readline()
+        process.send_signal(signal.SIGINT)
+        stdout, stderr = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
+    assert process.returncode == 130, stderr
+    assert "interrupted: 2 runs finished are kept" in stderr
+    assert "Traceback" not in stderr
+    figures = json.loads(out.read_text())
+    assert figures["interrupted"] is True
+    assert [(r["size"], r["complete"]) for r in figures["runs"]["base"]] == [(24, True)]
+    assert [p["size"] for p in figures["pairs"]] == [24]
+    assert "rooms 24x24" in stdout and "rooms 600x600" not in stdout
+    assert _processes_naming(str(out)) == []  # the workers (forks: the same command line)
+
+
+def _processes_naming(text: str) -> list[int]:
+    """The processes whose command line holds ``text`` (Linux's /proc)."""
+    found = []
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        try:
+            if text.encode() in cmdline.read_bytes():
+                found.append(int(cmdline.parent.name))
+        except OSError:
+            continue  # ended meanwhile
+    return found
 
 
 def test_settings_are_read_as_their_types() -> None:

@@ -20,7 +20,7 @@ from pathlib import Path
 from rich.console import Console
 
 from gcs.commands.plan import LOG_NAME, load, open_log, write_outputs
-from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
+from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
 from gcs.foxglove_live import DEFAULT_PORT, LiveView, LiveViewError
 from gcs.foxglove_live import HOST as LIVE_HOST
 from gcs.live.agent import AgentSettings
@@ -35,8 +35,7 @@ from gcs.report import print_summary
 from gcs.result import RunResult
 from vehicles.keyfile import KeyFile, KeyFileError, load_key_file, loose_permissions
 
-#: The mission log's file name in ``--out``.
-EXIT_INTERRUPTED = 130
+#: How much faster than real time the mock fleet of ``--sim`` runs, unless ``--speedup``.
 SIM_SPEEDUP = 10.0
 
 
