@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import signal
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -16,6 +13,7 @@ from gcs.bench_plans import parse_settings, summarise
 from gcs.cli import main
 from gcs.errors import UsageError
 from planner.settings import BmRule
+from tests.processes import ctrl_c, gcs_process
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -73,25 +71,14 @@ def test_ctrl_c_keeps_the_runs_finished(tmp_path: Path) -> None:
     out = tmp_path / "plans.json"
     args = ["bench", "plans", "--kinds", "rooms", "--sizes", "24,600", "--agents", "3"]
     args += ["--seeds", "1", "--jobs", "2", "--set", "hold_radius=0", "--json", str(out)]
-    process = subprocess.Popen(
-        [sys.executable, "-m", "gcs.cli", *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    try:
+    with gcs_process(*args) as process:
         assert process.stderr is not None
         deadline = time.monotonic() + 60
         seen = ""
         while "[2/4]" not in seen:  # the small map, under both settings
             assert time.monotonic() < deadline and process.poll() is None, seen
             seen += process.stderr.readline()
-        process.send_signal(signal.SIGINT)
-        stdout, stderr = process.communicate(timeout=60)
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.communicate()
+        stdout, stderr = ctrl_c(process)
     assert process.returncode == 130, stderr
     assert "interrupted: 2 runs finished are kept" in stderr
     assert "Traceback" not in stderr

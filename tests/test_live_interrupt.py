@@ -3,9 +3,6 @@ and a report."""
 
 from __future__ import annotations
 
-import signal
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -15,6 +12,7 @@ from gcs.live.resume import load_resume_point
 from gcs.log_reader import read_log
 from gcs.mission import load_mission
 from planner.belief import with_unknown_side
+from tests.processes import ctrl_c, gcs_process
 
 DEMO = Path(__file__).resolve().parents[1] / "missions" / "demo.yaml"
 
@@ -22,25 +20,8 @@ DEMO = Path(__file__).resolve().parents[1] / "missions" / "demo.yaml"
 @pytest.mark.timeout(120)
 def test_ctrl_c_sends_everyone_home_and_closes_the_log(tmp_path: Path) -> None:
     out = tmp_path / "live"
-    process = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "gcs.cli",
-            "run",
-            str(DEMO),
-            "--sim",
-            "--speedup",
-            "10",
-            "--quiet",
-            "--out",
-            str(out),
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    try:
+    args = ["run", str(DEMO), "--sim", "--speedup", "10", "--quiet", "--out", str(out)]
+    with gcs_process(*args) as process:
         log = out / "mission.mcap"
         # The mission is under way once its log has grown past the first chunks;
         # the other process gives no other sign (--quiet), so look at the file.
@@ -49,12 +30,7 @@ def test_ctrl_c_sends_everyone_home_and_closes_the_log(tmp_path: Path) -> None:
             assert process.poll() is None, process.communicate()
             assert time.monotonic() < deadline, "the mission did not get under way"
             time.sleep(0.2)
-        process.send_signal(signal.SIGINT)
-        stdout, stderr = process.communicate(timeout=60)
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.communicate()
+        stdout, stderr = ctrl_c(process)
     assert process.returncode == 130, (stdout, stderr)
     result = read_log(out / "mission.mcap")
     assert not result.complete
