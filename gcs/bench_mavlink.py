@@ -45,7 +45,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from rich.console import Console
 from rich.table import Table
 
-from gcs.bench_output import write_json
+from gcs.bench_cli import write_json
 from gcs.errors import EXIT_OK, UsageError
 from gcs.mission import MAX_SYSID, Mission, MissionError, load_mission
 from gcs.percentile import percentile

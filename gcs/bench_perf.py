@@ -29,7 +29,7 @@ import resource
 import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
@@ -37,7 +37,7 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
-from gcs.bench_output import positive_numbers, write_json
+from gcs.bench_cli import parse_settings, positive_numbers, write_json
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.mission import (
@@ -50,7 +50,7 @@ from gcs.mission import (
     default_connection,
 )
 from gcs.preflight import charger_distances
-from gcs.simulate import simulate
+from gcs.simulate import SimOptions, planner_settings, simulate
 from sitl_mock import mapgen
 from sitl_mock.gridmap import GridMap
 from sitl_mock.maps import to_ascii
@@ -102,10 +102,13 @@ def register_perf(which: argparse._SubParsersAction) -> None:  # type: ignore[ty
         help="the mock fleet's speed-up in the live runs (default 2)",
     )
     p.add_argument(
-        "--far-transit-recheck",
-        type=int,
-        metavar="N",
-        help="the planner option far_transit_recheck for the planner cases (default: off)",
+        "--set",
+        dest="changes",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a planner setting for the planner cases, e.g. far_transit_recheck=1 (repeat for "
+        "several; default: the planner's defaults)",
     )
     p.add_argument("--skip-planner", action="store_true", help="only the live runs")
     p.add_argument("--skip-live", action="store_true", help="only the planner cases")
@@ -121,7 +124,11 @@ class PlannerCase:
     kind: str
     size: int
     agents: int
-    far_transit_recheck: int | None = None  # the mission's planner option
+    #: Planner settings other than the defaults, as (name, value) pairs.
+    settings: tuple[tuple[str, Any], ...] = ()
+
+    def figures(self) -> dict[str, Any]:
+        return {**asdict(self), "settings": dict(self.settings)}
 
 
 def case_mission(grid: GridMap, agents: int, name: str, connections: list[str] | None = None):
@@ -168,8 +175,7 @@ def _run_case(case: PlannerCase, out: Connection) -> None:
     t0 = time.perf_counter()
     grid = GENERATORS[case.kind](case.size, case.size, MAP_SEED)
     mission = case_mission(grid, case.agents, f"{case.kind}{case.size}")
-    planner = replace(mission.planner, far_transit_recheck=case.far_transit_recheck)
-    mission = replace(mission, planner=planner)
+    settings = planner_settings(mission, 0, **dict(case.settings))
     setup_s = time.perf_counter() - t0
     next_report = time.perf_counter()
 
@@ -179,12 +185,12 @@ def _run_case(case: PlannerCase, out: Connection) -> None:
             next_report += PROGRESS_EVERY_S
             out.send({"iterations": iteration, "coverage_pct": round(100 * covered / free, 2)})
 
-    result = simulate(mission, progress=report)
+    result = simulate(mission, SimOptions(settings=settings), progress=report)
     steps = max(1, result.iterations * case.agents)
     out.send(
         {
             "done": True,
-            **asdict(case),
+            **case.figures(),
             "free_cells": result.free_cells,
             "setup_s": round(setup_s, 2),
             "wall_s": round(result.wall_s, 2),
@@ -216,11 +222,11 @@ def run_planner_case(case: PlannerCase, limit_s: float) -> dict[str, Any]:
             try:
                 message = receive.recv()
             except EOFError:
-                return {**asdict(case), "error": "the case failed (see stderr)"}
+                return {**case.figures(), "error": "the case failed (see stderr)"}
             if message.pop("done", False):
                 return message
             so_far = message
-        return {**asdict(case), **so_far, "error": f"over {limit_s:g} s"}
+        return {**case.figures(), **so_far, "error": f"over {limit_s:g} s"}
     finally:
         if child.is_alive():
             child.terminate()
@@ -228,10 +234,13 @@ def run_planner_case(case: PlannerCase, limit_s: float) -> dict[str, Any]:
         receive.close()
 
 
-def planner_table(rows: list[dict[str, Any]], far_transit_recheck: int | None = None) -> Table:
-    title = "offline planner (one process per case)"
-    if far_transit_recheck:
-        title += f", far_transit_recheck {far_transit_recheck}"
+def settings_text(settings: dict[str, Any]) -> str:
+    """Planner settings as a table title or a goal names them: ", key value" each."""
+    return "".join(f", {key} {value}" for key, value in settings.items())
+
+
+def planner_table(rows: list[dict[str, Any]], settings: dict[str, Any] | None = None) -> Table:
+    title = "offline planner (one process per case)" + settings_text(settings or {})
     table = Table(title=title)
     for name in (
         "map",
@@ -399,10 +408,9 @@ def goals(planner_rows: list[dict[str, Any]], live_rows: list[dict[str, Any]]) -
     for r in planner_rows:
         if (r["size"], r["agents"]) != (GOAL_SIDE, GOAL_AGENTS):
             continue
-        option = r.get("far_transit_recheck")
         what = (
             f"planner, {r['kind']} {GOAL_SIDE}x{GOAL_SIDE}, {GOAL_AGENTS} agents"
-            + (f", far_transit_recheck {option}" if option else "")
+            + settings_text(r.get("settings", {}))
             + f": complete, none lost, under {GOAL_WALL_S:g} s and {GOAL_PEAK_MB} MB"
         )
         found.append(
@@ -462,8 +470,7 @@ def run_perf(args: argparse.Namespace) -> int:
         raise UsageError(f"--kinds: choose from {', '.join(GENERATORS)}, got {args.kinds!r}")
     if args.live_speedup <= 0 or args.case_limit <= 0:
         raise UsageError("--live-speedup and --case-limit must be positive")
-    if args.far_transit_recheck is not None and args.far_transit_recheck < 1:
-        raise UsageError("--far-transit-recheck must be a positive number of moves")
+    settings = parse_settings(args.changes, "set")
     console = output_console(quiet=False)
     progress = Console(stderr=True)
     figures: dict[str, Any] = {"machine": platform.platform(), "python": platform.python_version()}
@@ -474,10 +481,10 @@ def run_perf(args: argparse.Namespace) -> int:
             for size in sizes:
                 for n in agents:
                     progress.print(f"planner: {kind} {size}x{size}, {n} agents ...")
-                    case = PlannerCase(kind, size, n, args.far_transit_recheck)
+                    case = PlannerCase(kind, size, n, tuple(settings.items()))
                     planner_rows.append(run_planner_case(case, args.case_limit))
         figures["planner"] = planner_rows
-        console.print(planner_table(planner_rows, args.far_transit_recheck))
+        console.print(planner_table(planner_rows, settings))
     if not args.skip_live:
         for n in vehicles:
             progress.print(f"live: {n} vehicles at speed-up {args.live_speedup:g} ...")

@@ -16,36 +16,29 @@ The exit status is 1 when a run did not cover its map or lost a vehicle.
 from __future__ import annotations
 
 import argparse
-import enum
 import hashlib
 import math
 import multiprocessing
 import os
 import platform
 import signal
-import types
-import typing
 from collections import defaultdict
 from collections.abc import Iterator, Sequence
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
 from rich.console import Console
 from rich.table import Table
 
-from gcs.bench_output import positive_numbers, write_json
+from gcs.bench_cli import parse_settings, positive_numbers, strategy_fields, write_json
 from gcs.bench_perf import case_mission
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
 from gcs.simulate import SimOptions, planner_settings, simulate
-from planner.settings import PlannerSettings
 from sitl_mock import mapgen
 
 GENERATORS = {"rooms": mapgen.rooms, "caves": mapgen.caves, "open": mapgen.open_field}
-#: Settings that come from the mission, not from the strategy being compared.
-MISSION_SETTINGS = frozenset({"cell_size_m", "reserve_pct", "seed"})
 
 
 @dataclass(frozen=True)
@@ -94,67 +87,6 @@ def register_plans(which: argparse._SubParsersAction) -> None:  # type: ignore[t
     )
     p.add_argument("--json", type=Path, help="also write every run's figures to this JSON file")
     p.set_defaults(func=run_plans)
-
-
-# -- the settings compared -------------------------------------------------------------
-
-
-def strategy_fields() -> dict[str, Any]:
-    """The planner settings a strategy may change, with their types."""
-    hints = typing.get_type_hints(PlannerSettings)
-    return {
-        f.name: hints[f.name] for f in fields(PlannerSettings) if f.name not in MISSION_SETTINGS
-    }
-
-
-def _coerce(key: str, kind: Any, value: Any) -> Any:
-    """``value`` (as YAML read it) as a value of the setting's type ``kind``."""
-    options = typing.get_args(kind) if isinstance(kind, types.UnionType) else (kind,)
-    if value is None and type(None) in options:
-        return None
-    for option in options:
-        if isinstance(option, type) and issubclass(option, enum.Enum):
-            try:
-                return option(value)
-            except ValueError:
-                choices = ", ".join(str(m.value) for m in option)
-                raise ValueError(f"{key}: choose from {choices}, got {value!r}") from None
-        if option is bool and isinstance(value, bool):
-            return value
-        if option is int and isinstance(value, int) and not isinstance(value, bool):
-            return value
-        if option is float and isinstance(value, int | float) and not isinstance(value, bool):
-            return float(value)
-    raise ValueError(f"{key}: expected {_type_name(kind)}, got {value!r}")
-
-
-def _type_name(kind: Any) -> str:
-    options = typing.get_args(kind) if isinstance(kind, types.UnionType) else (kind,)
-    return " or ".join("null" if o is type(None) else o.__name__ for o in options)
-
-
-def parse_settings(pairs: Sequence[str], what: str) -> dict[str, Any]:
-    """``KEY=VALUE`` pairs as planner setting overrides, checked as the planner checks them."""
-    known = strategy_fields()
-    overrides: dict[str, Any] = {}
-    for pair in pairs:
-        key, sep, text = pair.partition("=")
-        key = key.strip()
-        if not sep or not key:
-            raise UsageError(f"--{what}: expected KEY=VALUE, got {pair!r}")
-        if key not in known:
-            raise UsageError(f"--{what}: unknown setting {key!r}; choose from {', '.join(known)}")
-        try:
-            overrides[key] = _coerce(key, known[key], yaml.safe_load(text))
-        except yaml.YAMLError:
-            raise UsageError(f"--{what}: cannot read the value of {pair!r}") from None
-        except ValueError as exc:
-            raise UsageError(f"--{what}: {exc}") from None
-    try:
-        PlannerSettings(**overrides)
-    except ValueError as exc:
-        raise UsageError(f"--{what}: {exc}") from None
-    return overrides
 
 
 # -- the runs --------------------------------------------------------------------------

@@ -36,21 +36,29 @@ def test_planner_cases_print_and_write_their_figures(tmp_path: Path, capsys) -> 
     assert "offline planner" in capsys.readouterr().out
 
 
-def test_the_planner_option_reaches_the_cases(tmp_path: Path, capsys, monkeypatch) -> None:
-    """And the goal of that size of case is judged (the goal made small for the test)."""
+def test_planner_settings_reach_the_cases(tmp_path: Path, capsys, monkeypatch) -> None:
+    """The plan is another with the setting; and the goal of that size of case is judged
+    (the goal made small for the test), naming the setting."""
     monkeypatch.setattr(bench_perf, "GOAL_SIDE", 24)
     monkeypatch.setattr(bench_perf, "GOAL_AGENTS", 3)
     out = tmp_path / "perf.json"
-    args = ["bench", "perf", "--sizes", "24", "--agents", "3", "--kinds", "open", "--skip-live"]
-    assert main([*args, "--far-transit-recheck", "4", "--json", str(out)]) == 0
+    args = ["bench", "perf", "--sizes", "24", "--agents", "3", "--kinds", "rooms", "--skip-live"]
+    assert main([*args, "--json", str(out)]) == 0
+    (default,) = json.loads(out.read_text())["planner"]
+    assert main([*args, "--set", "far_transit_recheck=1", "--json", str(out)]) == 0
     figures = json.loads(out.read_text())
     (row,) = figures["planner"]
-    assert row["far_transit_recheck"] == 4 and row["coverage_pct"] == 100.0
+    assert default["settings"] == {} and row["settings"] == {"far_transit_recheck": 1}
+    assert row["coverage_pct"] == 100.0
+    assert (row["total_path_m"], row["iterations"]) != (
+        default["total_path_m"],
+        default["iterations"],
+    )
     (goal,) = figures["goals"]
-    assert "open 24x24, 3 agents, far_transit_recheck 4" in goal["what"]
+    assert "rooms 24x24, 3 agents, far_transit_recheck 1" in goal["what"]
     assert goal["measured"].startswith("100.0 % covered, 0 lost")
     printed = capsys.readouterr().out
-    assert "far_transit_recheck 4" in printed and "scaling goals" in printed
+    assert "far_transit_recheck 1" in printed and "scaling goals" in printed
 
 
 def test_a_case_over_its_limit_is_reported_not_waited_for(tmp_path: Path, capsys) -> None:
@@ -71,7 +79,8 @@ def test_a_case_over_its_limit_is_reported_not_waited_for(tmp_path: Path, capsys
         (["--sizes", "ten"], "--sizes: expected comma-separated numbers, got 'ten'"),
         (["--agents", "0"], "--agents: expected positive numbers, got '0'"),
         (["--kinds", "caves"], "--kinds: choose from rooms, open, got 'caves'"),
-        (["--far-transit-recheck", "0"], "--far-transit-recheck must be a positive number"),
+        (["--set", "far_transit_recheck=-1"], "far_transit_recheck must not be negative"),
+        (["--set", "speed=2"], "--set: unknown setting 'speed'"),
     ],
 )
 def test_bad_options_are_refused(args: list[str], message: str, capsys) -> None:
@@ -95,7 +104,7 @@ def _planner_row(kind: str, size: int, agents: int, **figures: object) -> dict[s
 def test_the_goals_are_judged_on_the_cases_that_measure_them() -> None:
     planner = [
         _planner_row("open", 300, 50, wall_s=7.1),  # not a goal's case
-        _planner_row("open", 1000, 50, far_transit_recheck=64),
+        _planner_row("open", 1000, 50, settings={"far_transit_recheck": 64}),
         _planner_row("open", 1000, 50, wall_s=75.6),
         _planner_row("rooms", 1000, 50, peak_mb=2100),
         _planner_row("rooms", 1000, 50, coverage_pct=99.9),

@@ -17,9 +17,9 @@ from pathlib import Path
 
 from rich.table import Table
 
+from gcs.bench_cli import write_json
 from gcs.bench_faults import register_faults
 from gcs.bench_mavlink import register_mavlink
-from gcs.bench_output import write_json
 from gcs.bench_perf import register_perf
 from gcs.bench_plans import register_plans
 from gcs.console import output_console
