@@ -10,7 +10,7 @@ size and fleet and over all runs. The battery is set as in ``gcs bench perf``
 
 A crowd's plan is chaotic (one different decision early changes everything
 after it), so a change is judged on the means of many maps, never on one.
-The exit status is 1 when a run did not cover its map or lost a vehicle.
+The exit status is 1 when a run failed, did not cover its map or lost a vehicle.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ import multiprocessing
 import os
 import platform
 import signal
+import traceback
 from collections import defaultdict
 from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass
@@ -119,8 +120,14 @@ def _quiet_worker() -> None:
 
 
 def _run(job: tuple[PlanCase, str, dict[str, Any]]) -> tuple[str, dict[str, Any]]:
+    """One run; a run that fails is a row with its error (its traceback on stderr), so
+    that one failure loses none of the other runs."""
     case, label, overrides = job
-    return label, run_case(case, overrides)
+    try:
+        return label, run_case(case, overrides)
+    except Exception as exc:
+        traceback.print_exc()
+        return label, {**asdict(case), "error": f"{type(exc).__name__}: {exc}"}
 
 
 def run_all(
@@ -140,11 +147,16 @@ def run_all(
 
 
 def _progress_line(done: int, total: int, label: str, row: dict[str, Any]) -> str:
-    return (
-        f"[{done}/{total}] {label}: {row['kind']} {row['size']}x{row['size']} "
-        f"seed {row['seed']}, {row['agents']} agents: "
-        f"{row['path_per_free_cell']:.3f} m per free cell, {row['iterations']} iterations"
-    )
+    run = f"[{done}/{total}] {label}: {row['kind']} {row['size']}x{row['size']} "
+    run += f"seed {row['seed']}, {row['agents']} agents: "
+    if "error" in row:
+        return run + f"failed: {row['error']}"
+    return run + f"{row['path_per_free_cell']:.3f} m per free cell, {row['iterations']} iterations"
+
+
+def _sound(row: dict[str, Any]) -> bool:
+    """Ran to the end, covered its map, lost nobody."""
+    return "error" not in row and row["complete"] and not row["lost"]
 
 
 # -- the comparison --------------------------------------------------------------------
@@ -165,8 +177,8 @@ def compare(base: list[dict[str, Any]], variant: list[dict[str, Any]]) -> list[d
     pairs = []
     for row in sorted(variant, key=_key):
         was = by_case.get(_key(row))
-        if was is None:
-            continue  # interrupted before the base run of this case
+        if was is None or "error" in was or "error" in row:
+            continue  # interrupted before the base run of this case, or a run failed
         pairs.append(
             {
                 **{k: row[k] for k in ("kind", "size", "agents", "seed")},
@@ -208,7 +220,8 @@ def runs_table(rows: dict[str, list[dict[str, Any]]], pairs: list[dict[str, Any]
     for label in rows:
         for name in ("path", "iterations"):
             table.add_column(f"{label} {name}", justify="right")
-    if pairs:
+    compared = len(rows) > 1
+    if compared:
         for name in ("path ratio", "iterations ratio", "same plan"):
             table.add_column(name, justify="right")
     by_label = {label: {_key(r): r for r in found} for label, found in rows.items()}
@@ -219,16 +232,21 @@ def runs_table(rows: dict[str, list[dict[str, Any]]], pairs: list[dict[str, Any]
         cells = [f"{kind} {size}x{size}", str(seed), str(agents)]
         for found in by_label.values():
             r = found[key]
+            if "error" in r:
+                cells += ["[red]failed[/]", ""]
+                continue
             path = f"{r['path_per_free_cell']:.3f}"
             if not r["complete"]:
                 path += " [red]incomplete[/]"
             if r["lost"]:
                 path += f" [red]{r['lost']} lost[/]"
             cells += [path, str(r["iterations"])]
-        if pairs:
-            p = ratios[key]
+        p = ratios.get(key)
+        if p is not None:
             same = "yes" if p["same_plan"] else "no"
             cells += [f"{p['path_ratio']:.3f}", f"{p['iterations_ratio']:.3f}", same]
+        elif compared:
+            cells += ["", "", ""]  # not run under both
         table.add_row(*cells)
     return table
 
@@ -300,5 +318,5 @@ def run_plans(args: argparse.Namespace) -> int:
     write_json(args.json, figures, console)
     if interrupted:
         return EXIT_INTERRUPTED
-    ok = all(r["complete"] and not r["lost"] for found in rows.values() for r in found)
+    ok = all(_sound(r) for found in rows.values() for r in found)
     return EXIT_OK if ok else EXIT_FAILED

@@ -9,7 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from gcs.bench_plans import parse_settings, summarise
+from gcs import bench_plans
+from gcs.bench_cli import parse_settings
+from gcs.bench_plans import summarise
 from gcs.cli import main
 from gcs.errors import UsageError
 from planner.settings import BmRule
@@ -100,6 +102,29 @@ def _processes_naming(text: str) -> list[int]:
         except OSError:
             continue  # ended meanwhile
     return found
+
+
+def test_a_failed_run_is_reported_and_the_others_kept(tmp_path: Path, monkeypatch, capsys) -> None:
+    real = bench_plans.simulate
+
+    def failing_on_seed_2(mission, options):
+        if mission.name.endswith("-2"):
+            raise RuntimeError("planner bug")
+        return real(mission, options)
+
+    monkeypatch.setattr(bench_plans, "simulate", failing_on_seed_2)
+    out = tmp_path / "plans.json"
+    args = ["bench", "plans", "--kinds", "open", *TINY, "--jobs", "1", "--set", "hold_radius=0"]
+    assert main([*args, "--json", str(out)]) == 1
+    figures = json.loads(out.read_text())
+    for label in ("base", "variant"):
+        rows = {r["seed"]: r for r in figures["runs"][label]}
+        assert rows[2]["error"] == "RuntimeError: planner bug"
+        assert rows[1]["complete"] and "error" not in rows[1]
+    assert [p["seed"] for p in figures["pairs"]] == [1]
+    captured = capsys.readouterr()
+    assert "failed: RuntimeError: planner bug" in captured.err
+    assert "failed" in captured.out  # in the runs table
 
 
 def test_settings_are_read_as_their_types() -> None:
