@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import argparse
 import enum
 import json
 import types
@@ -31,6 +32,17 @@ def positive_numbers(text: str, what: str, kind: type = int) -> list[Any]:
     if not values or any(v <= 0 for v in values):
         raise UsageError(f"--{what}: expected positive numbers, got {text!r}")
     return values
+
+
+def json_path(text: str) -> Path:
+    """The ``--json`` option, checked before the bench runs (some run for an hour):
+    its folder must exist and the path must not be a folder."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a folder, not a file")
+    if not path.parent.is_dir():
+        raise argparse.ArgumentTypeError(f"no folder {path.parent} to write {path.name} in")
+    return path
 
 
 def write_json(path: Path | None, figures: dict[str, Any], console: Console) -> None:

@@ -35,7 +35,7 @@ import yaml
 from rich.console import Console
 from rich.table import Table
 
-from gcs.bench_cli import write_json
+from gcs.bench_cli import json_path, write_json
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.log_reader import LogError, read_contents, read_log
@@ -132,7 +132,7 @@ def register_faults(which: argparse._SubParsersAction) -> None:  # type: ignore[
     p.add_argument(
         "--only", metavar="N,...", help="run only these rows (1-based numbers of the table)"
     )
-    p.add_argument("--json", type=Path, help="also write the table to this JSON file")
+    p.add_argument("--json", type=json_path, help="also write the table to this JSON file")
     p.set_defaults(func=run_faults)
 
 

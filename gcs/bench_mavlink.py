@@ -45,7 +45,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from rich.console import Console
 from rich.table import Table
 
-from gcs.bench_cli import write_json
+from gcs.bench_cli import json_path, write_json
 from gcs.errors import EXIT_OK, UsageError
 from gcs.mission import MAX_SYSID, Mission, MissionError, load_mission
 from gcs.percentile import percentile
@@ -527,7 +527,7 @@ def register_mavlink(which: argparse._SubParsersAction) -> None:  # type: ignore
         default=DEFAULT_MAX_LAG_MS,
         help="physics lag (95th percentile) above which a fleet falls behind",
     )
-    p.add_argument("--json", type=Path, help="also write the figures as JSON to this file")
+    p.add_argument("--json", type=json_path, help="also write the figures as JSON to this file")
     p.set_defaults(func=run_mavlink_command)
 
 

@@ -37,7 +37,7 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
-from gcs.bench_cli import parse_settings, positive_numbers, write_json
+from gcs.bench_cli import json_path, parse_settings, positive_numbers, write_json
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.mission import (
@@ -112,7 +112,7 @@ def register_perf(which: argparse._SubParsersAction) -> None:  # type: ignore[ty
     )
     p.add_argument("--skip-planner", action="store_true", help="only the live runs")
     p.add_argument("--skip-live", action="store_true", help="only the planner cases")
-    p.add_argument("--json", type=Path, help="also write the figures to this JSON file")
+    p.add_argument("--json", type=json_path, help="also write the figures to this JSON file")
     p.set_defaults(func=run_perf)
 
 

@@ -26,13 +26,12 @@ import traceback
 from collections import defaultdict
 from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass
-from pathlib import Path
 from typing import Any
 
 from rich.console import Console
 from rich.table import Table
 
-from gcs.bench_cli import parse_settings, positive_numbers, strategy_fields, write_json
+from gcs.bench_cli import json_path, parse_settings, positive_numbers, strategy_fields, write_json
 from gcs.bench_perf import case_mission
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
@@ -86,7 +85,9 @@ def register_plans(which: argparse._SubParsersAction) -> None:  # type: ignore[t
         default=os.cpu_count() or 1,
         help="runs at once, each in a process of its own (default: one per core)",
     )
-    p.add_argument("--json", type=Path, help="also write every run's figures to this JSON file")
+    p.add_argument(
+        "--json", type=json_path, help="also write every run's figures to this JSON file"
+    )
     p.set_defaults(func=run_plans)
 
 

@@ -10,11 +10,8 @@ from pathlib import Path
 import pytest
 
 from gcs import bench_plans
-from gcs.bench_cli import parse_settings
 from gcs.bench_plans import summarise
 from gcs.cli import main
-from gcs.errors import UsageError
-from planner.settings import BmRule
 from tests.processes import ctrl_c, gcs_process
 
 pytestmark = pytest.mark.timeout(120)
@@ -125,38 +122,6 @@ def test_a_failed_run_is_reported_and_the_others_kept(tmp_path: Path, monkeypatc
     captured = capsys.readouterr()
     assert "failed: RuntimeError: planner bug" in captured.err
     assert "failed" in captured.out  # in the runs table
-
-
-def test_settings_are_read_as_their_types() -> None:
-    parsed = parse_settings(
-        ["bm_rule=paper", "hold_radius=8", "resume_pct=90", "charging_slots=null", "spread=false"],
-        "set",
-    )
-    assert parsed == {
-        "bm_rule": BmRule.PAPER,
-        "hold_radius": 8,
-        "resume_pct": 90.0,
-        "charging_slots": None,
-        "spread": False,
-    }
-
-
-@pytest.mark.parametrize(
-    ("pair", "says"),
-    [
-        ("hold_radius", "expected KEY=VALUE"),
-        ("speed=3", "unknown setting 'speed'"),
-        ("reserve_pct=10", "unknown setting 'reserve_pct'"),  # the mission's, not a strategy's
-        ("bm_rule=zigzag", "choose from paper, tight"),
-        ("hold_radius=1.5", "expected int"),
-        ("spread=3", "expected bool"),
-        ("far_transit_recheck=-1", "must not be negative"),
-        ("hold_radius=[1", "cannot read the value"),
-    ],
-)
-def test_a_bad_setting_is_a_usage_error_that_names_it(pair: str, says: str) -> None:
-    with pytest.raises(UsageError, match="--set: .*" + says.replace("[", r"\[")):
-        parse_settings([pair], "set")
 
 
 def test_bad_options_exit_2_before_any_run(capsys) -> None:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from rich.table import Table
 
-from gcs.bench_cli import write_json
+from gcs.bench_cli import json_path, write_json
 from gcs.bench_faults import register_faults
 from gcs.bench_mavlink import register_mavlink
 from gcs.bench_perf import register_perf
@@ -91,7 +91,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     paper.add_argument(
         "--agents", type=int, nargs="+", default=sorted(PAPER_TABLE1), help="Table 1 fleet sizes"
     )
-    paper.add_argument("--json", type=Path, help="also write the figures as JSON to this file")
+    paper.add_argument("--json", type=json_path, help="also write the figures as JSON to this file")
     paper.set_defaults(func=run_paper)
     register_mavlink(which)
     register_perf(which)
