@@ -108,6 +108,9 @@ class PlannerSpec:
     #: A target more than this many moves away is searched for again only once half
     #: the way beyond it is travelled (None: at every step; PlannerSettings).
     far_transit_recheck: int | None = None
+    #: Charge on the way when the round trip costs at most this share of the charge
+    #: gained (None: only when needed; PlannerSettings).
+    top_up_ratio: float | None = None
 
 
 @dataclass(frozen=True)
@@ -172,6 +175,7 @@ _PLANNER_KEYS = (
     "path_planner",
     "max_iterations",
     "far_transit_recheck",
+    "top_up_ratio",
 )
 
 
@@ -405,6 +409,11 @@ class _Loader:
             raise self.fail(
                 "planner.charge_pct_per_step", f"must be a number > 0 or null, got {_show(rate)}"
             )
+        top_up = section.get("top_up_ratio")
+        if top_up is not None and (not _is_number(top_up) or not 0 <= top_up <= 1):
+            raise self.fail(
+                "planner.top_up_ratio", f"must be a number in [0, 1] or null, got {_show(top_up)}"
+            )
         return PlannerSpec(
             reserve_pct=float(reserve),
             charge_pct_per_step=None if rate is None else float(rate),
@@ -414,6 +423,7 @@ class _Loader:
             ),
             max_iterations=self.optional_count(section, "max_iterations", "planner"),
             far_transit_recheck=self.optional_count(section, "far_transit_recheck", "planner"),
+            top_up_ratio=None if top_up is None else float(top_up),
         )
 
     # ----------------------------------------------------------------- helpers

@@ -557,6 +557,8 @@ class Coordinator:
     # -- blocked: choose a BTP (Algorithm 3 with exact search) ------------------
 
     def _take_target(self, a: _Agent) -> Action:
+        if self._worth_topping_up(a):
+            return self._go_charge(a)
         if a.held_for > 0:
             # Held back from targets others are about to sweep: look again only
             # after a pause that doubles while nothing frees up (each look is a
@@ -714,6 +716,15 @@ class Coordinator:
             # (walls found since the last look may have closed the way).
             return self._open is None or bool(self._open_from_charger()[index])
         return 2 * home * self._best_move_cost() <= self._range_budget_pct
+
+    def _worth_topping_up(self, a: _Agent) -> bool:
+        """``top_up_ratio``: is the charger near enough for a charge now to cost little
+        of what it gives?"""
+        ratio = self.settings.top_up_ratio
+        if not ratio or a.index == self.belief.charger_index:
+            return False
+        gain = self.settings.resume_pct - a.battery_pct
+        return 2 * self.belief.charger_dist[a.index] * self._move_cost(a) <= ratio * gain
 
     def _go_charge(self, a: _Agent) -> Action:
         self._drop_claim(a)

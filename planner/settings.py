@@ -77,6 +77,11 @@ class PlannerSettings:
     #: target, so on large maps these searches are most of the planner's time;
     #: the plans change (shorter on some maps, longer on others: see README).
     far_transit_recheck: int = 0
+    #: An agent about to look for a target goes to charge when the way there and back
+    #: costs at most this share of the charge it would get (0: only when the battery
+    #: needs it, as the paper). Charges taken near the charger early spare trips from
+    #: the far end of the map later (see README, Performance).
+    top_up_ratio: float = 0.0
     #: Iterations an agent waits on another before asking it to make way.
     patience: int = 2
     #: Share of known free cells that are PRM nodes, and the connection radius in
@@ -98,3 +103,5 @@ class PlannerSettings:
             raise ValueError("charging_slots must be at least 1")
         if self.far_transit_recheck < 0:
             raise ValueError("far_transit_recheck must not be negative")
+        if not 0 <= self.top_up_ratio <= 1:
+            raise ValueError("top_up_ratio must be in [0, 1]")

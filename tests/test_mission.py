@@ -120,6 +120,7 @@ planner:
   path_planner: prm
   max_iterations: 5000
   far_transit_recheck: 64
+  top_up_ratio: 0.4
 """
 
 
@@ -128,7 +129,7 @@ def test_every_key_is_read(tmp_path: Path) -> None:
     assert mission.name == "full"
     assert mission.cell_size_m == 2.5
     assert mission.origin == Origin(-33.5, 151.25, 10.0)
-    assert mission.planner == PlannerSpec(25.0, 2.5, 1, PathPlanner.PRM, 5000, 64)
+    assert mission.planner == PlannerSpec(25.0, 2.5, 1, PathPlanner.PRM, 5000, 64, 0.4)
     assert [(v.sysid, v.type, v.speed_m_s, v.charge_rate_pct_s) for v in mission.fleet] == [
         (2, VehicleType.COPTER, 5.0, 1.0),
         (1, VehicleType.ROVER, 1.5, 0.5),
@@ -288,6 +289,11 @@ BAD: list[tuple[str, str | None, str]] = [
         "map: m.txt\nplanner: {far_transit_recheck: -3}\n",
         None,
         "planner.far_transit_recheck: must be a positive integer or null, got -3",
+    ),
+    (
+        "map: m.txt\nplanner: {top_up_ratio: 1.5}\n",
+        None,
+        "planner.top_up_ratio: must be a number in [0, 1] or null, got 1.5",
     ),
     (
         "map: m.txt\nplanner: {path_planner: astar}\n",

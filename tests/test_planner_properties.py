@@ -92,9 +92,10 @@ small_maps = st.builds(
     hold=st.sampled_from([0, 5]),
     prm=st.booleans(),
     far=st.sampled_from([0, 4, 16]),
+    top_up=st.sampled_from([0.0, 0.4]),
 )
 def test_every_strategy_keeps_the_invariants(
-    grid, agents, bm, targets, spread, replan, bm_spread, hold, prm, far
+    grid, agents, bm, targets, spread, replan, bm_spread, hold, prm, far, top_up
 ):
     mission = make_mission(grid, agents, _energy_for(grid, 0.5))
     settings_ = planner_settings(
@@ -106,6 +107,7 @@ def test_every_strategy_keeps_the_invariants(
         bm_spread=bm_spread,
         hold_radius=hold,
         far_transit_recheck=far,
+        top_up_ratio=top_up,
     )
     if prm:
         settings_ = dataclasses.replace(settings_, path_planner=PathPlannerKind.PRM)

@@ -470,3 +470,29 @@ def test_the_planned_way_home_is_the_way_granted_cell_by_cell() -> None:
         assert action.kind == ActionKind.MOVE and action.to is not None
         granted.append(cell := action.to)
     assert granted == planned
+
+
+def _first_decision_on_the_way_back(top_up_ratio: float, battery: float) -> AgentMode:
+    """An agent three moves from the charger, its sweep blocked (every cell around it
+    covered), decides what to do next with ``battery`` left."""
+    grid, readings = sensing("\n".join(["#######"] + ["#.....#"] * 6 + ["###C###"]))
+    settings_ = PlannerSettings(top_up_ratio=top_up_ratio)
+    coordinator = Coordinator(grid.shape, grid.charger, [AgentSpec(1, 2.0)], settings_)
+    for r in range(1, 7):
+        for c in range(1, 6):
+            coordinator.observe(1, (r, c), readings((r, c)), 100.0)
+    # Only the top row is left to cover; the agent stands three moves from the charger.
+    belief = coordinator.belief
+    for c in range(1, 6):
+        belief.covered[belief.index((1, c))] = 0
+    coordinator.observe(1, (4, 3), readings((4, 3)), battery)
+    coordinator.decide(1)
+    return coordinator.mode(1)
+
+
+def test_an_agent_near_the_charger_tops_up_when_it_costs_little_of_the_charge() -> None:
+    # 3 moves there and back at 2 % a move: 12 % of the 60 % a charge would give.
+    assert _first_decision_on_the_way_back(0.2, 40.0) == AgentMode.RETURN
+    assert _first_decision_on_the_way_back(0.1, 40.0) == AgentMode.TRANSIT  # 12 > 6
+    assert _first_decision_on_the_way_back(0.2, 90.0) == AgentMode.TRANSIT  # 12 > 2
+    assert _first_decision_on_the_way_back(0.0, 40.0) == AgentMode.TRANSIT  # the paper's rule
