@@ -34,6 +34,14 @@ def positive_numbers(text: str, what: str, kind: type = int) -> list[Any]:
     return values
 
 
+def chosen(text: str, what: str, known: Sequence[str]) -> list[str]:
+    """A comma-separated option of names, each one of ``known``, e.g. ``--kinds rooms,open``."""
+    names = [name.strip() for name in text.split(",") if name.strip()]
+    if not names or any(name not in known for name in names):
+        raise UsageError(f"--{what}: choose from {', '.join(known)}, got {text!r}")
+    return names
+
+
 def json_path(text: str) -> Path:
     """The ``--json`` option, checked before the bench runs (some run for an hour):
     its folder must exist and the path must not be a folder."""

@@ -37,7 +37,7 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
-from gcs.bench_cli import json_path, parse_settings, positive_numbers, write_json
+from gcs.bench_cli import chosen, json_path, parse_settings, positive_numbers, write_json
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.mission import (
@@ -464,10 +464,7 @@ def run_perf(args: argparse.Namespace) -> int:
     sizes = positive_numbers(args.sizes, "sizes")
     agents = positive_numbers(args.agents, "agents")
     vehicles = positive_numbers(args.vehicles, "vehicles")
-    kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
-    unknown = [k for k in kinds if k not in GENERATORS]
-    if unknown or not kinds:
-        raise UsageError(f"--kinds: choose from {', '.join(GENERATORS)}, got {args.kinds!r}")
+    kinds = chosen(args.kinds, "kinds", list(GENERATORS))
     if args.live_speedup <= 0 or args.case_limit <= 0:
         raise UsageError("--live-speedup and --case-limit must be positive")
     settings = parse_settings(args.changes, "set")

@@ -31,7 +31,14 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
-from gcs.bench_cli import json_path, parse_settings, positive_numbers, strategy_fields, write_json
+from gcs.bench_cli import (
+    chosen,
+    json_path,
+    parse_settings,
+    positive_numbers,
+    strategy_fields,
+    write_json,
+)
 from gcs.bench_perf import case_mission
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
@@ -270,9 +277,7 @@ def summary_table(summary: list[dict[str, Any]]) -> Table:
 
 
 def run_plans(args: argparse.Namespace) -> int:
-    kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
-    if not kinds or any(k not in GENERATORS for k in kinds):
-        raise UsageError(f"--kinds: choose from {', '.join(GENERATORS)}, got {args.kinds!r}")
+    kinds = chosen(args.kinds, "kinds", list(GENERATORS))
     if args.jobs < 1:
         raise UsageError("--jobs must be at least 1")
     sizes = positive_numbers(args.sizes, "sizes")

@@ -1,4 +1,5 @@
-"""The ``gcs`` command line in a process of its own, for the tests of Ctrl-C."""
+"""The ``gcs`` command line in a process of its own, for the tests of Ctrl-C, and the
+processes left running."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import subprocess
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 
 
 @contextmanager
@@ -30,3 +32,15 @@ def ctrl_c(process: subprocess.Popen[str], timeout_s: float = 60) -> tuple[str, 
     """Interrupt as a terminal's Ctrl-C does; what it printed (stdout, stderr) once it ended."""
     process.send_signal(signal.SIGINT)
     return process.communicate(timeout=timeout_s)
+
+
+def processes_naming(text: str) -> list[int]:
+    """The processes whose command line holds ``text`` (Linux's /proc)."""
+    found = []
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        try:
+            if text.encode() in cmdline.read_bytes():
+                found.append(int(cmdline.parent.name))
+        except OSError:
+            continue  # ended meanwhile
+    return found

@@ -12,7 +12,7 @@ import pytest
 from gcs import bench_plans
 from gcs.bench_plans import summarise
 from gcs.cli import main
-from tests.processes import ctrl_c, gcs_process
+from tests.processes import ctrl_c, gcs_process, processes_naming
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -86,19 +86,7 @@ def test_ctrl_c_keeps_the_runs_finished(tmp_path: Path) -> None:
     assert [(r["size"], r["complete"]) for r in figures["runs"]["base"]] == [(24, True)]
     assert [p["size"] for p in figures["pairs"]] == [24]
     assert "rooms 24x24" in stdout and "rooms 600x600" not in stdout
-    assert _processes_naming(str(out)) == []  # the workers (forks: the same command line)
-
-
-def _processes_naming(text: str) -> list[int]:
-    """The processes whose command line holds ``text`` (Linux's /proc)."""
-    found = []
-    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
-        try:
-            if text.encode() in cmdline.read_bytes():
-                found.append(int(cmdline.parent.name))
-        except OSError:
-            continue  # ended meanwhile
-    return found
+    assert processes_naming(str(out)) == []  # the workers (forks: the same command line)
 
 
 def test_a_failed_run_is_reported_and_the_others_kept(tmp_path: Path, monkeypatch, capsys) -> None:
