@@ -724,6 +724,8 @@ class Coordinator:
         if not ratio or a.index == self.belief.charger_index:
             return False
         gain = self.settings.resume_pct - a.battery_pct
+        if gain <= _EPS:
+            return False  # full already (or no battery model): nothing to gain
         return 2 * self.belief.charger_dist[a.index] * self._move_cost(a) <= ratio * gain
 
     def _go_charge(self, a: _Agent) -> Action:

@@ -472,12 +472,14 @@ def test_the_planned_way_home_is_the_way_granted_cell_by_cell() -> None:
     assert granted == planned
 
 
-def _first_decision_on_the_way_back(top_up_ratio: float, battery: float) -> AgentMode:
+def _first_decision_on_the_way_back(
+    top_up_ratio: float, battery: float, energy_per_m: float = 2.0
+) -> AgentMode:
     """An agent three moves from the charger, its sweep blocked (every cell around it
     covered), decides what to do next with ``battery`` left."""
     grid, readings = sensing("\n".join(["#######"] + ["#.....#"] * 6 + ["###C###"]))
     settings_ = PlannerSettings(top_up_ratio=top_up_ratio)
-    coordinator = Coordinator(grid.shape, grid.charger, [AgentSpec(1, 2.0)], settings_)
+    coordinator = Coordinator(grid.shape, grid.charger, [AgentSpec(1, energy_per_m)], settings_)
     for r in range(1, 7):
         for c in range(1, 6):
             coordinator.observe(1, (r, c), readings((r, c)), 100.0)
@@ -496,3 +498,8 @@ def test_an_agent_near_the_charger_tops_up_when_it_costs_little_of_the_charge() 
     assert _first_decision_on_the_way_back(0.1, 40.0) == AgentMode.TRANSIT  # 12 > 6
     assert _first_decision_on_the_way_back(0.2, 90.0) == AgentMode.TRANSIT  # 12 > 2
     assert _first_decision_on_the_way_back(0.0, 40.0) == AgentMode.TRANSIT  # the paper's rule
+
+
+def test_an_agent_with_nothing_to_gain_never_tops_up() -> None:
+    # No battery model: the trip costs nothing, and a charge gives nothing either.
+    assert _first_decision_on_the_way_back(1.0, 100.0, energy_per_m=0.0) == AgentMode.TRANSIT
