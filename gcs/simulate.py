@@ -84,9 +84,10 @@ def planner_settings(mission: Mission, seed: int = 0, **strategy: object) -> Pla
         "charging_slots": spec.charging_slots,
         "path_planner": PathPlannerKind(spec.path_planner),
         "far_transit_recheck": spec.far_transit_recheck or 0,
-        "top_up_ratio": spec.top_up_ratio or 0.0,
         "seed": seed,
     }
+    if spec.top_up_ratio is not None:  # null: the planner's default
+        settings["top_up_ratio"] = spec.top_up_ratio
     return PlannerSettings(**(settings | strategy))  # type: ignore[arg-type]
 
 

@@ -150,6 +150,8 @@ class _Agent:
     pending: int | None = None  # reserved target of the move under way
     trailing: int | None = None  # the cell just left, held until the next decision
     charges: int = 0
+    #: Covered a cell since it last charged (``top_up_ratio`` needs it).
+    swept: bool = False
     waited: int = 0
     make_way_for: int | None = None
     #: After stepping aside: (agent let through, cell given up, decisions left to wait).
@@ -351,6 +353,7 @@ class Coordinator:
         a.battery_pct = battery_pct
         newly_free = belief.sense(cell, readings)
         if belief.cover(cell, a.id):
+            a.swept = True
             self._on_covered(index, a.id)
         if newly_free and self._roadmap is not None:
             self._roadmap.grow(belief, newly_free)
@@ -474,6 +477,7 @@ class Coordinator:
                     return WAIT
                 a.mode = _CHARGE
                 a.charges += 1
+                a.swept = False
                 self._events.append(PlannerEvent(EventKind.CHARGED, a.id, self.belief.charger))
                 return CHARGE
             return self._follow(a, self.belief.charger_index)
@@ -557,8 +561,6 @@ class Coordinator:
     # -- blocked: choose a BTP (Algorithm 3 with exact search) ------------------
 
     def _take_target(self, a: _Agent) -> Action:
-        if self._worth_topping_up(a):
-            return self._go_charge(a)
         if a.held_for > 0:
             # Held back from targets others are about to sweep: look again only
             # after a pause that doubles while nothing frees up (each look is a
@@ -607,6 +609,8 @@ class Coordinator:
             if found is None:
                 continue
             goal, path = found
+            if self._worth_topping_up(a, len(path)):
+                return self._go_charge(a)
             if hint is not None and goal == previous and len(old_path) <= len(path):
                 # Re-deciding in transit: keep a detour around other agents
                 # that is no longer than the fresh path, or the two alternate
@@ -717,16 +721,21 @@ class Coordinator:
             return self._open is None or bool(self._open_from_charger()[index])
         return 2 * home * self._best_move_cost() <= self._range_budget_pct
 
-    def _worth_topping_up(self, a: _Agent) -> bool:
-        """``top_up_ratio``: is the charger near enough for a charge now to cost little
-        of what it gives?"""
+    def _worth_topping_up(self, a: _Agent, moves: int) -> bool:
+        """``top_up_ratio``: with a target found ``moves`` away, is a charge first worth
+        its trip? When the charger is nearer than the target (the agent walks far
+        anyway), and the trip there and back costs little of what the charge gives.
+        Only once the agent has covered a cell since it last charged: a crowd
+        jostling at the charger's door spends a little charge without covering
+        anything, and would go back to the pad for it again and again."""
         ratio = self.settings.top_up_ratio
-        if not ratio or a.index == self.belief.charger_index:
+        home = self.belief.charger_dist[a.index]
+        if not ratio or not a.swept or home == 0 or moves <= home:
             return False
         gain = self.settings.resume_pct - a.battery_pct
         if gain <= _EPS:
             return False  # full already (or no battery model): nothing to gain
-        return 2 * self.belief.charger_dist[a.index] * self._move_cost(a) <= ratio * gain
+        return 2 * home * self._move_cost(a) <= ratio * gain
 
     def _go_charge(self, a: _Agent) -> Action:
         self._drop_claim(a)
@@ -736,6 +745,7 @@ class Coordinator:
         if a.index == self.belief.charger_index:
             a.mode = _CHARGE
             a.charges += 1
+            a.swept = False
             return CHARGE
         return self._follow(a, self.belief.charger_index)
 

@@ -77,11 +77,12 @@ class PlannerSettings:
     #: target, so on large maps these searches are most of the planner's time;
     #: the plans change (shorter on some maps, longer on others: see README).
     far_transit_recheck: int = 0
-    #: An agent about to look for a target goes to charge when the way there and back
-    #: costs at most this share of the charge it would get (0: only when the battery
-    #: needs it, as the paper). Charges taken near the charger early spare trips from
-    #: the far end of the map later (see README, Performance).
-    top_up_ratio: float = 0.0
+    #: An agent that found its next target farther away than the charger goes to
+    #: charge first when the way there and back costs at most this share of the
+    #: charge it would get (0: only when the battery needs it, as the paper).
+    #: Charges taken near the charger early spare trips from the far end of the
+    #: map later, and thin a crowd (see README, Performance).
+    top_up_ratio: float = 0.4
     #: Iterations an agent waits on another before asking it to make way.
     patience: int = 2
     #: Share of known free cells that are PRM nodes, and the connection radius in

@@ -21,6 +21,8 @@ from gcs.mission import (
     load_mission,
 )
 from gcs.preflight import charger_distances
+from gcs.simulate import planner_settings
+from planner.settings import PlannerSettings
 from sitl_mock import mapgen
 from sitl_mock.gridmap import GridMap
 from tests.checks import make_mission
@@ -83,6 +85,16 @@ def write(tmp_path: Path, text: str, map_text: str = MAP, map_name: str = "m.txt
     return path
 
 
+@pytest.mark.parametrize(
+    ("given", "used"), [("null", PlannerSettings().top_up_ratio), ("0", 0.0), ("0.25", 0.25)]
+)
+def test_top_up_ratio_null_is_the_planners_default_and_0_the_papers_rule(
+    tmp_path: Path, given: str, used: float
+) -> None:
+    mission = load_mission(write(tmp_path, f"map: m.txt\nplanner: {{top_up_ratio: {given}}}\n"))
+    assert planner_settings(mission).top_up_ratio == used
+
+
 def test_a_map_alone_is_a_mission(tmp_path: Path) -> None:
     mission = load_mission(write(tmp_path, "map: m.txt\n"))
     assert mission.name == "mission"
@@ -120,7 +132,7 @@ planner:
   path_planner: prm
   max_iterations: 5000
   far_transit_recheck: 64
-  top_up_ratio: 0.4
+  top_up_ratio: 0.25
 """
 
 
@@ -129,7 +141,7 @@ def test_every_key_is_read(tmp_path: Path) -> None:
     assert mission.name == "full"
     assert mission.cell_size_m == 2.5
     assert mission.origin == Origin(-33.5, 151.25, 10.0)
-    assert mission.planner == PlannerSpec(25.0, 2.5, 1, PathPlanner.PRM, 5000, 64, 0.4)
+    assert mission.planner == PlannerSpec(25.0, 2.5, 1, PathPlanner.PRM, 5000, 64, 0.25)
     assert [(v.sysid, v.type, v.speed_m_s, v.charge_rate_pct_s) for v in mission.fleet] == [
         (2, VehicleType.COPTER, 5.0, 1.0),
         (1, VehicleType.ROVER, 1.5, 0.5),

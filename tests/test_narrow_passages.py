@@ -8,12 +8,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from gcs.simulate import SimOptions, simulate
+from gcs.bench_perf import case_mission
+from gcs.simulate import SimOptions, planner_settings, simulate
 from planner.coordinator import _GIVEN_WAY_AFTER, ActionKind, AgentMode, Coordinator, PlannerEvent
 from planner.grid import Cell, CellState
 from planner.settings import AgentSpec, PlannerSettings
 from sitl_mock.gridmap import GridMap
-from sitl_mock.mapgen import entrance, rooms
+from sitl_mock.mapgen import caves, entrance, rooms
 from sitl_mock.maps import make_map, parse_ascii
 from tests.checks import check_run, energy_for_round_trips, make_mission
 
@@ -49,6 +50,20 @@ def test_a_returning_queue_and_one_going_out_pass_in_a_one_cell_passage() -> Non
     the one leaving the charger head on and both waited for ever (the run stopped
     at its limit with 84 % covered). Done in about 1300 iterations now."""
     run_through(room_beyond_passage(30, 60, 20, 1), 50, trips=1.0, limit=6000)
+
+
+def test_a_crowd_at_the_chargers_door_does_not_go_back_to_top_up_for_ever() -> None:
+    """Caves 150x150, 50 agents, ``top_up_ratio`` 0.7: the crowd leaving the charger
+    jostled at its door, spent a little charge without covering anything and went
+    back to the pad for it, again and again (every agent on the pad or beside it at
+    iteration 30000, 161 cells left). An agent now tops up only once it has covered
+    a cell since it charged: done in about 1400 iterations."""
+    grid = caves(150, 150, 1)
+    mission = case_mission(grid, 50, "caves150-1")
+    settings_ = planner_settings(mission, top_up_ratio=0.7)
+    events: list[tuple[int, PlannerEvent]] = []
+    result = simulate(mission, SimOptions(settings=settings_, max_iterations=4000), events=events)
+    check_run(result, grid, events)
 
 
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])

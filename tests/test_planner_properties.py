@@ -92,7 +92,7 @@ small_maps = st.builds(
     hold=st.sampled_from([0, 5]),
     prm=st.booleans(),
     far=st.sampled_from([0, 4, 16]),
-    top_up=st.sampled_from([0.0, 0.4]),
+    top_up=st.sampled_from([0.0, 0.4, 1.0]),
 )
 def test_every_strategy_keeps_the_invariants(
     grid, agents, bm, targets, spread, replan, bm_spread, hold, prm, far, top_up

@@ -473,33 +473,50 @@ def test_the_planned_way_home_is_the_way_granted_cell_by_cell() -> None:
 
 
 def _first_decision_on_the_way_back(
-    top_up_ratio: float, battery: float, energy_per_m: float = 2.0
+    top_up_ratio: float,
+    battery: float,
+    energy_per_m: float = 2.0,
+    at: Cell = (5, 3),
+    swept: bool = True,
 ) -> AgentMode:
-    """An agent three moves from the charger, its sweep blocked (every cell around it
-    covered), decides what to do next with ``battery`` left."""
+    """Agent 1 stands ``at`` a cell (by default two moves from the charger, four from
+    the nearest cell left), its sweep blocked (every cell around it covered), and
+    decides what to do next with ``battery`` left. The map was swept by agent 1, or
+    by agent 2 when not ``swept`` (then agent 1 covered nothing since it charged)."""
     grid, readings = sensing("\n".join(["#######"] + ["#.....#"] * 6 + ["###C###"]))
     settings_ = PlannerSettings(top_up_ratio=top_up_ratio)
-    coordinator = Coordinator(grid.shape, grid.charger, [AgentSpec(1, energy_per_m)], settings_)
-    for r in range(1, 7):
+    fleet = [AgentSpec(1, energy_per_m), AgentSpec(2, energy_per_m)]
+    coordinator = Coordinator(grid.shape, grid.charger, fleet, settings_)
+    sweeper = 1 if swept else 2
+    for r in range(2, 7):  # the top row is seen from the next, and left to cover
         for c in range(1, 6):
-            coordinator.observe(1, (r, c), readings((r, c)), 100.0)
-    # Only the top row is left to cover; the agent stands three moves from the charger.
-    belief = coordinator.belief
-    for c in range(1, 6):
-        belief.covered[belief.index((1, c))] = 0
-    coordinator.observe(1, (4, 3), readings((4, 3)), battery)
+            coordinator.observe(sweeper, (r, c), readings((r, c)), 100.0)
+    coordinator.observe(2, grid.charger, readings(grid.charger), 100.0)
+    coordinator.observe(1, at, readings(at), battery)
     coordinator.decide(1)
     return coordinator.mode(1)
 
 
 def test_an_agent_near_the_charger_tops_up_when_it_costs_little_of_the_charge() -> None:
-    # 3 moves there and back at 2 % a move: 12 % of the 60 % a charge would give.
+    # 2 moves there and back at 2 % a move: 8 % of the 60 % a charge would give.
     assert _first_decision_on_the_way_back(0.2, 40.0) == AgentMode.RETURN
-    assert _first_decision_on_the_way_back(0.1, 40.0) == AgentMode.TRANSIT  # 12 > 6
-    assert _first_decision_on_the_way_back(0.2, 90.0) == AgentMode.TRANSIT  # 12 > 2
+    assert _first_decision_on_the_way_back(0.1, 40.0) == AgentMode.TRANSIT  # 8 > 6
+    assert _first_decision_on_the_way_back(0.2, 90.0) == AgentMode.TRANSIT  # 8 > 2
     assert _first_decision_on_the_way_back(0.0, 40.0) == AgentMode.TRANSIT  # the paper's rule
 
 
 def test_an_agent_with_nothing_to_gain_never_tops_up() -> None:
     # No battery model: the trip costs nothing, and a charge gives nothing either.
     assert _first_decision_on_the_way_back(1.0, 100.0, energy_per_m=0.0) == AgentMode.TRANSIT
+
+
+def test_an_agent_nearer_its_target_than_the_charger_does_not_top_up() -> None:
+    # 4 moves from the charger, 2 from the top row: 16 % of 60 % is within 0.4.
+    assert _first_decision_on_the_way_back(0.4, 40.0, at=(3, 3)) == AgentMode.TRANSIT
+    assert _first_decision_on_the_way_back(0.4, 40.0) == AgentMode.RETURN  # 2 from each
+
+
+def test_an_agent_that_covered_nothing_since_it_charged_does_not_top_up() -> None:
+    # Else a crowd jostling at the charger's door goes back to the pad for ever.
+    assert _first_decision_on_the_way_back(1.0, 40.0, swept=False) == AgentMode.TRANSIT
+    assert _first_decision_on_the_way_back(1.0, 40.0) == AgentMode.RETURN
