@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from collections import deque
 from pathlib import Path
 
@@ -9,6 +10,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from gcs.cli import main
 from gcs.mission import (
     Mission,
     MissionError,
@@ -21,7 +23,7 @@ from gcs.mission import (
     load_mission,
 )
 from gcs.preflight import charger_distances
-from gcs.simulate import planner_settings
+from gcs.simulate import SimOptions, planner_settings, simulate
 from planner.settings import PlannerSettings
 from sitl_mock import mapgen
 from sitl_mock.gridmap import GridMap
@@ -93,6 +95,16 @@ def test_top_up_ratio_null_is_the_planners_default_and_0_the_papers_rule(
 ) -> None:
     mission = load_mission(write(tmp_path, f"map: m.txt\nplanner: {{top_up_ratio: {given}}}\n"))
     assert planner_settings(mission).top_up_ratio == used
+
+
+def test_gcs_plan_no_top_up_plans_with_the_papers_charging_rule(tmp_path: Path) -> None:
+    mission = load_mission(MISSIONS / "scenario3.yaml").with_agents(11)
+    papers = simulate(mission, SimOptions(settings=planner_settings(mission, top_up_ratio=0.0)))
+    ours = simulate(mission)
+    assert papers.total_path_m != ours.total_path_m  # else this tells nothing
+    args = ["plan", str(MISSIONS / "scenario3.yaml"), "--agents", "11", "--quiet"]
+    assert main([*args, "--no-top-up", "--out", str(tmp_path)]) == 0
+    assert json.loads((tmp_path / "report.json").read_text())["total_path_m"] == papers.total_path_m
 
 
 def test_a_map_alone_is_a_mission(tmp_path: Path) -> None:

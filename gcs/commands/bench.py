@@ -65,6 +65,7 @@ STRATEGIES = (
             "target_policy": TargetPolicy.OWN_FIRST,
             "spread": False,
             "replan_transit": False,
+            "top_up_ratio": 0.0,
         },
     ),
 )

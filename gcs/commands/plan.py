@@ -79,6 +79,12 @@ def add_mission_arguments(p: argparse.ArgumentParser) -> None:
         help="do not prefer targets that no other working agent is closer to",
     )
     strategy.add_argument(
+        "--no-top-up",
+        action="store_true",
+        help="charge only when the battery needs it, as the paper (default: also charge "
+        "on the way when the charger is near and the next target far: planner.top_up_ratio)",
+    )
+    strategy.add_argument(
         "--path-planner",
         choices=[k.value for k in PathPlannerKind],
         help="exact grid search (default) or the paper's PRM",
@@ -103,6 +109,8 @@ def strategy_overrides(args: argparse.Namespace) -> dict[str, object]:
         overrides["target_policy"] = TargetPolicy(args.targets)
     if args.no_spread:
         overrides["spread"] = False
+    if args.no_top_up:
+        overrides["top_up_ratio"] = 0.0
     return overrides
 
 
