@@ -185,6 +185,10 @@ class _Agent:
             self._working = working
             self.team.working[self.slot] = working
 
+    def begin_charge(self) -> None:
+        self.charges += 1
+        self.swept = False
+
     def stand(self, index: int, cell: Cell) -> None:
         self.index = index
         self.team.rows[self.slot], self.team.cols[self.slot] = cell
@@ -476,8 +480,7 @@ class Coordinator:
                     a.mode = _DONE
                     return WAIT
                 a.mode = _CHARGE
-                a.charges += 1
-                a.swept = False
+                a.begin_charge()
                 self._events.append(PlannerEvent(EventKind.CHARGED, a.id, self.belief.charger))
                 return CHARGE
             return self._follow(a, self.belief.charger_index)
@@ -744,8 +747,7 @@ class Coordinator:
         self._events.append(PlannerEvent(EventKind.RETURN, a.id, self.belief.cell(a.index)))
         if a.index == self.belief.charger_index:
             a.mode = _CHARGE
-            a.charges += 1
-            a.swept = False
+            a.begin_charge()
             return CHARGE
         return self._follow(a, self.belief.charger_index)
 
