@@ -565,6 +565,27 @@ def reached_within(
 
 
 @njit(cache=True, nogil=True)
+def surely_affordable(
+    targets: np.ndarray, start: int, lands: np.ndarray, energy: tuple[float, float, float, float, float]
+) -> bool:
+    """Can the agent surely afford one of the ``targets`` by the known ways? So
+    when it can by a way through a landmark (the charger's, or another's:
+    ``landmarks``), never shorter than the shortest way: an upper bound of
+    the moves, as ``way_at_least`` is a lower one."""
+    battery, cost, floor, _, _ = energy
+    for i in range(targets.size):
+        v = targets[i]
+        longest = np.int64(UNREACHED)
+        for k in range(lands.shape[1]):
+            via = np.int64(lands[start, k]) + np.int64(lands[v, k])
+            if via < longest:
+                longest = via
+        if longest < UNREACHED and battery - cost * (longest + lands[v, HOME]) >= floor:
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True)
 def none_between(
     cells: np.ndarray, start: int, goal: int, moves: int, stride: int, lands: np.ndarray
 ) -> bool:

@@ -27,12 +27,17 @@ from planner.bounded_search import (
     none_between,
     none_uncontested,
     rivals_listed,
+    surely_affordable,
     target_rank,
 )
 from planner.grid import CellState
 from planner.landmarks import HOME, Landmarks
 
 _FREE = int(CellState.FREE)
+#: What ``TargetSearch.run`` returns when, with a ``hold`` radius, every
+#: candidate the agent can afford is left to another agent: rank 2, and no
+#: target (the agent is held back; finding a way to one would be wasted).
+HELD_BACK: tuple[int, int, Sequence[int]] = (2, -1, ())
 
 
 @njit(cache=True, nogil=True)
@@ -715,11 +720,13 @@ class TargetSearch:
         ``(False, None)``.
 
         Then the search, finding no better rank, covers the whole known map
-        for the first candidate the agent can afford (rank 2: the coordinator
-        holds the agent back). Here a pass over the uncovered cells rules out
-        better ranks, a second one lists those the agent might afford, and a
-        search bounded to the ways to them finds the first, or that there is
-        none. With too many to list, only the search can tell.
+        for a candidate the agent can afford (rank 2: the coordinator holds
+        the agent back, so which one does not matter: ``HELD_BACK``). Here a
+        pass over the uncovered cells rules out better ranks, a second one
+        lists those the agent might afford; when a way through a landmark
+        affords one (``surely_affordable``), that is the answer, else a
+        search bounded to the ways to them finds one, or that there is none.
+        With too many to list, only the search can tell.
         """
         candidate, full = self.candidate, self.uncovered_list[: self.belief.uncovered_count]
         found = self._rivals[:-1]
@@ -730,13 +737,21 @@ class TargetSearch:
         if count == self.RIVALS:
             return False, None
         targets = found[:count]
+        if count == 0:
+            return True, None
+        if surely_affordable(targets, start, self.lands, energy):
+            return True, HELD_BACK
         battery, cost, floor, _, _ = energy
         bound = UNREACHED
-        if count and cost > 0:  # the farthest any of them can be afforded, and a move to spare
+        if cost > 0:  # the farthest any of them can be afforded, and a move to spare
             bound = int((battery - floor) / cost) - int(self.home[targets].min()) + 1
-        return True, self._first_among(
-            start, targets, min(bound, UNREACHED), 2, hold, others, energy
-        )
+        self.stamp += 1
+        rank, _ = first_among(
+            self.state, self.candidate, targets, start, self.belief.stride,
+            min(bound, UNREACHED), 2, hold, others[0], others[1], self.lands, energy,
+            self.seen, self.stamp, self.parent, self.queue,
+        )  # fmt: skip
+        return True, None if rank < 0 else HELD_BACK
 
     def _still_shortest(
         self, start: int, goal: int, moves: int, known_at: tuple[int, int] | None
@@ -791,7 +806,8 @@ class TargetSearch:
         ``MapBelief.stamp`` when that was last known to be a shortest way, if
         ever (``pool`` None only): when it is certain what the search would
         return, it is returned without one, with a shortest path there
-        (perhaps not the one the search finds: the way, when it is as short)."""
+        (perhaps not the one the search finds: the way, when it is as short).
+        With ``hold`` > 0, rank 2 is always ``HELD_BACK``."""
         self.lands = self.landmarks.update()
         margin = -1
         if pool is None:
@@ -862,6 +878,8 @@ class TargetSearch:
             memo.remember(self._kept[:kept], self.belief)
         if rank < 0:
             return None
+        if rank == HELD_BACK[0] and hold > 0:
+            return HELD_BACK
         return rank, cell, self._unwind(start, cell)
 
 
