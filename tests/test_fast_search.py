@@ -584,6 +584,37 @@ def test_a_candidate_reached_first_is_taken_only_if_affordable_there() -> None:
     assert len(confirmed[2]) == len(searched[2])
 
 
+@settings(max_examples=200, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    battery=st.floats(20.0, 100.0),
+    cost=st.sampled_from([0.0, 0.1, 0.5, 1.0]),
+    count=st.integers(1, 6),
+)
+def test_surely_affordable_only_when_one_is_by_the_shortest_way(
+    seed: int, battery: float, cost: float, count: int
+) -> None:
+    """The held-back agent's proof (a way through a landmark) says a target is
+    affordable only when it is by the shortest ways, to it and home; and
+    whenever it is with a charge to spare for the detour through the charger."""
+    rng = np.random.default_rng(seed)
+    belief, walls = _swept_map(rng, seed, 0.0)
+    home = _true_distances(walls, belief.charger)
+    reached = np.argwhere(home >= 0)
+    at = tuple(int(x) for x in reached[rng.integers(0, len(reached))])
+    picked = [tuple(int(x) for x in reached[i]) for i in rng.integers(0, len(reached), count)]
+    from_start = _true_distances(walls, at)
+    floor = 20.0
+    energy = (battery, cost, floor, cost, 80.0)
+    lands = _lands(TargetSearch(belief))
+    targets = np.array([belief.index(t) for t in picked], dtype=np.int64)
+    sure = bounded_search.surely_affordable(targets, belief.index(at), lands, energy)
+    if sure:
+        assert any(battery - cost * (from_start[t] + home[t]) >= floor for t in picked)
+    if any(battery - cost * (home[at] + 2 * home[t]) >= floor for t in picked):
+        assert sure  # through the charger, the landmark every search has
+
+
 def test_left_to_others_counts_only_if_affordable_by_the_way_there() -> None:
     """The last candidate, behind a wall, is left to an agent beside it: the agent
     would be held back if it could afford it, which it could as the crow flies
