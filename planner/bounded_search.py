@@ -566,7 +566,10 @@ def reached_within(
 
 @njit(cache=True, nogil=True)
 def surely_affordable(
-    targets: np.ndarray, start: int, lands: np.ndarray, energy: tuple[float, float, float, float, float]
+    targets: np.ndarray,
+    start: int,
+    lands: np.ndarray,
+    energy: tuple[float, float, float, float, float],
 ) -> bool:
     """Can the agent surely afford one of the ``targets`` by the known ways? So
     when it can by a way through a landmark (the charger's, or another's:

@@ -745,13 +745,8 @@ class TargetSearch:
         bound = UNREACHED
         if cost > 0:  # the farthest any of them can be afforded, and a move to spare
             bound = int((battery - floor) / cost) - int(self.home[targets].min()) + 1
-        self.stamp += 1
-        rank, _ = first_among(
-            self.state, self.candidate, targets, start, self.belief.stride,
-            min(bound, UNREACHED), 2, hold, others[0], others[1], self.lands, energy,
-            self.seen, self.stamp, self.parent, self.queue,
-        )  # fmt: skip
-        return True, None if rank < 0 else HELD_BACK
+        found = self._first_among(start, targets, min(bound, UNREACHED), 2, hold, others, energy)
+        return True, None if found is None else HELD_BACK
 
     def _still_shortest(
         self, start: int, goal: int, moves: int, known_at: tuple[int, int] | None
