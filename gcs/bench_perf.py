@@ -4,8 +4,9 @@
    with scattered obstacles) of every ``--sizes`` side with every ``--agents`` count.
    The battery is set so that a round trip to the farthest cell costs two thirds of
    the usable charge: the staying alive policy is at work at every size. Each case
-   runs in a child process of its own (its peak memory is the child's), and is
-   stopped after ``--case-limit`` seconds (then reported with the coverage it reached).
+   runs in a child process of its own (its peak memory is the child's), forked once
+   the planner is compiled (so no case counts compiling), and is stopped after
+   ``--case-limit`` seconds (then reported with the coverage it reached).
 2. Live ground station: one ``gcs run --sim`` in this process (the mock fleet in the
    same event loop) with 1, 16 and 64 vehicles on an open map sized to the fleet:
    decision latency (arrival and sensing in, the next guided target out), event-loop
@@ -206,6 +207,22 @@ def _run_case(case: PlannerCase, out: Connection) -> None:
         }
     )
     out.close()
+
+
+#: The map side and fleet of the runs that compile the planner before the cases.
+WARM_UP_SIDE = 100
+WARM_UP_AGENTS = 10
+
+
+def compile_planner(kinds: list[str], settings: dict[str, Any]) -> None:
+    """Run the planner on a small map of each kind in this process, so that every
+    compiled function the cases use is compiled (or loaded from numba's cache)
+    before they fork: after an update numba's cache is stale, and each case
+    would compile again and count that in its time."""
+    for kind in kinds:
+        grid = GENERATORS[kind](WARM_UP_SIDE, WARM_UP_SIDE, MAP_SEED)
+        mission = case_mission(grid, WARM_UP_AGENTS, f"warm-up-{kind}")
+        simulate(mission, SimOptions(settings=planner_settings(mission, 0, **settings)))
 
 
 def run_planner_case(case: PlannerCase, limit_s: float) -> dict[str, Any]:
@@ -474,6 +491,8 @@ def run_perf(args: argparse.Namespace) -> int:
     planner_rows: list[dict[str, Any]] = []
     live_rows: list[dict[str, Any]] = []
     if not args.skip_planner:
+        progress.print("planner: compiling ...")
+        compile_planner(kinds, settings)
         for kind in kinds:
             for size in sizes:
                 for n in agents:

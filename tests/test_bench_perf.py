@@ -130,3 +130,19 @@ def test_the_goals_are_judged_on_the_cases_that_measure_them() -> None:
 
 def test_no_goal_is_judged_without_its_cases() -> None:
     assert goals([_planner_row("open", 300, 50)], [{"vehicles": 16}]) == []
+
+
+def test_the_planner_is_compiled_before_the_cases_fork(monkeypatch, tmp_path: Path) -> None:
+    """Each kind of map the cases use, with their settings, is planned in this process
+    first, so that the children inherit the compiled code instead of compiling."""
+    planned: list[tuple[str, int]] = []
+    real = bench_perf.simulate
+
+    def recording(mission, options, **kwargs):
+        planned.append((mission.name, options.settings.far_transit_recheck))
+        return real(mission, options, **kwargs)
+
+    monkeypatch.setattr(bench_perf, "simulate", recording)
+    args = ["bench", "perf", "--sizes", "24", "--agents", "2", "--skip-live"]
+    assert main([*args, "--set", "far_transit_recheck=3", "--json", str(tmp_path / "p.json")]) == 0
+    assert planned == [("warm-up-rooms", 3), ("warm-up-open", 3)]  # the cases ran in children
