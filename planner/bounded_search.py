@@ -578,12 +578,12 @@ def surely_affordable(
     battery, cost, floor, _, _ = energy
     for i in range(targets.size):
         v = targets[i]
-        longest = np.int64(UNREACHED)
+        at_most = np.int64(UNREACHED)  # the shortest way through a landmark
         for k in range(lands.shape[1]):
             via = np.int64(lands[start, k]) + np.int64(lands[v, k])
-            if via < longest:
-                longest = via
-        if longest < UNREACHED and battery - cost * (longest + lands[v, HOME]) >= floor:
+            if via < at_most:
+                at_most = via
+        if at_most < UNREACHED and battery - cost * (at_most + lands[v, HOME]) >= floor:
             return True
     return False
 
