@@ -26,6 +26,8 @@ _FREE = int(CellState.FREE)
 JUMP_AFTER = 4096
 #: Bounds ``first_lesser`` tries before leaving it to the search.
 JUMP_TRIES = 4
+#: The marks of ``seen`` one ``first_among`` uses (a walk, then a search).
+AMONG_MARKS = 2
 
 
 @njit(cache=True, nogil=True)
@@ -83,7 +85,7 @@ def first_lesser(
     ``hold`` of no other agent nearer to it, or uncontested) as (rank, cell,
     distance); (-1, -1, -1) when it is left to the search. The way there is
     left in ``spare``'s ``parent``; its ``seen`` marked with ``mark`` to
-    ``mark + JUMP_TRIES - 1``.
+    ``mark + AMONG_MARKS * JUMP_TRIES - 1``.
 
     In a crowd every candidate near the agent is left to another, and the
     search reaches a great part of the map before it finds one that is not,
@@ -124,7 +126,7 @@ def first_lesser(
             return -1, -1, -1
         rank, cell = first_among(
             state, candidate, found[:count], start, stride, bound, 1, hold,
-            others_r, others_c, lands, energy, seen, mark + attempt, parent, queue,
+            others_r, others_c, lands, energy, seen, mark + AMONG_MARKS * attempt, parent, queue,
         )  # fmt: skip
         if rank >= 0:
             d = 0
@@ -313,22 +315,31 @@ def first_among(
     of them it reaches that the agent can afford and that ranks ``rank`` or
     better, as (rank, cell), or (-1, -1); ``parent`` holds the path there.
 
-    When no target is nearer than ``bound`` by Manhattan distance (on open
-    maps, a transit's target and the rivals as far as it), the walk of
-    ``first_tied`` finds it; else ``first_reached``, breadth-first.
+    The nearest of them by the lower bounds (``way_at_least``) are tried
+    first, with the walk of ``first_tied`` out to that bound: in a transit
+    the rival that takes the agent's target from it is most often as near
+    as its bound says, and the walk, along the ways to it only, is far
+    cheaper than the search of everything within ``bound``. Else (or when
+    that bound is ``bound``, the only try) ``first_reached``, breadth-first:
+    any target it finds is also as far as that bound or farther.
+    ``stamp`` and ``stamp + 1`` mark ``seen``.
     """
-    r0 = start // stride
-    c0 = start % stride
+    least = np.int64(UNREACHED)
     for i in range(targets.size):
-        t = targets[i]
-        if abs(t // stride - r0) + abs(t % stride - c0) < bound:
-            return first_reached(
-                state, candidate, targets, start, stride, bound, rank, hold,
-                others_r, others_c, lands, energy, seen, stamp, parent, queue,
-            )  # fmt: skip
-    return first_tied(
-        state, candidate, targets, start, stride, bound, rank, hold,
+        at_least = way_at_least(start, targets[i], stride, lands)
+        if at_least < least:
+            least = at_least
+    if least > bound:
+        return -1, -1
+    found, cell = first_tied(
+        state, candidate, targets, start, stride, least, rank, hold,
         others_r, others_c, lands, energy, seen, stamp, parent, queue,
+    )  # fmt: skip
+    if found >= 0 or least == bound:
+        return found, cell
+    return first_reached(
+        state, candidate, targets, start, stride, bound, rank, hold,
+        others_r, others_c, lands, energy, seen, stamp + 1, parent, queue,
     )  # fmt: skip
 
 
@@ -380,23 +391,25 @@ def first_tied(
     parent: np.ndarray,
     stack: np.ndarray,
 ) -> tuple[int, int]:
-    """``first_reached`` when no target is nearer than ``bound`` by Manhattan
-    distance, without visiting the cells between.
+    """``first_reached`` when no target is nearer than ``bound`` by the lower
+    bounds of ``way_at_least``, without visiting the cells between: the
+    targets whose bound is ``bound`` are looked for at that distance.
 
     The breadth-first search reaches the cells one move farther in the order
     of their parents, and a parent's in the order N, S, E, W: it reaches a
     cell first by the shortest way whose moves come first in that order, and
     of the targets at one distance, first the one at the end of the first of
-    these ways. A target can then only be reached at ``bound`` moves, by a
-    way every move of which brings it one nearer (Manhattan), so on such a
-    way each cell's distance from the start is its Manhattan distance. A
-    depth-first walk trying N, S, E, W in turn, over the cells the breadth-first
-    search would admit that lie on such a way to a target it would take, and
-    never twice over a cell (one that led nowhere leads nowhere by any way
-    there), finds the first of these ways: the same target, by the same path.
+    these ways. A target ``t`` can then only be reached at ``bound`` moves,
+    and a cell ``d`` moves along any way from the start with ``d`` plus its
+    lower bound to ``t`` within ``bound`` (as ``first_reached`` admits
+    cells) is no nearer than ``d``: else, as the Manhattan distance and each
+    landmark's difference obey the triangle inequality, the bound from the
+    start to ``t`` would be less than ``bound``. So the walk's depth is each
+    cell's distance, and a depth-first walk trying N, S, E, W in turn over
+    those cells, never twice over a cell (one that led nowhere leads
+    nowhere by any way there), finds the first of these ways: the same
+    target, by the same path.
     """
-    r0 = start // stride
-    c0 = start % stride
     n = targets.size
     # The targets that may be taken (reached at ``bound`` moves, it is their rank there).
     taken = np.empty(n, dtype=np.int64)
@@ -404,7 +417,7 @@ def first_tied(
     count = 0
     for i in range(n):
         t = targets[i]
-        if candidate[t] == 0 or abs(t // stride - r0) + abs(t % stride - c0) != bound:
+        if candidate[t] == 0 or way_at_least(start, t, stride, lands) != bound:
             continue
         found = target_rank(t, bound, rank, hold, stride, others_r, others_c, lands, energy)
         if found >= 0:
@@ -429,22 +442,12 @@ def first_tied(
         if state[v] != _FREE or seen[v] == stamp:
             continue
         d = depth + 1
-        r = v // stride
-        c = v % stride
         on_way = -1
         for i in range(count):
-            t = taken[i]
-            if d + abs(r - t // stride) + abs(c - t % stride) == bound:
+            if way_within(v, taken[i], bound - d, stride, lands):
                 on_way = i
                 break
         if on_way < 0:
-            continue
-        within = False  # as ``first_reached`` admits cells, by every target
-        for i in range(n):
-            if way_within(v, targets[i], bound - d, stride, lands):
-                within = True
-                break
-        if not within:
             continue
         seen[v] = stamp
         parent[v] = u

@@ -17,6 +17,7 @@ from numba import njit
 
 from planner.belief import UNREACHED, MapBelief
 from planner.bounded_search import (
+    AMONG_MARKS,
     JUMP_AFTER,
     JUMP_TRIES,
     first_among,
@@ -38,6 +39,9 @@ _FREE = int(CellState.FREE)
 #: candidate the agent can afford is left to another agent: rank 2, and no
 #: target (the agent is held back; finding a way to one would be wasted).
 HELD_BACK: tuple[int, int, Sequence[int]] = (2, -1, ())
+#: The marks of the spare ``seen`` one ``_search`` may use: ``first_lesser``'s,
+#: and one for each ``none_uncontested``.
+_SPARE_MARKS = AMONG_MARKS * JUMP_TRIES + 2
 
 
 @njit(cache=True, nogil=True)
@@ -141,7 +145,7 @@ def _search(
     cells ``_uncontested_horizon`` kept (-1 if it did not keep any).
 
     ``found`` and ``spare`` (a second ``seen``, ``queue`` and ``parent``, whose
-    marks are ``8 * stamp`` and up, one for each search there) are scratch
+    marks are ``_SPARE_MARKS * stamp`` and up) are scratch
     for the shortcuts: once the first lesser target is known,
     ``none_uncontested`` may prove that no candidate within the horizon is
     uncontested, without searching out to it; and when the search has gone
@@ -178,7 +182,7 @@ def _search(
                 jumped = True
                 rank, v, d = first_lesser(
                     state, candidate, everyone, start, stride, hold, others_r, others_c,
-                    lands, energy, found, spare, 8 * stamp,
+                    lands, energy, found, spare, _SPARE_MARKS * stamp,
                 )  # fmt: skip
                 if rank >= 0:
                     ours = spare[2]
@@ -193,7 +197,7 @@ def _search(
                     )
                     if d > horizon or none_uncontested(
                         state, candidate, listed, start, stride, others_r, others_c, lands,
-                        energy, found, spare, 8 * stamp + JUMP_TRIES,
+                        energy, found, spare, _SPARE_MARKS * stamp + AMONG_MARKS * JUMP_TRIES,
                     ):  # fmt: skip
                         return 1, v, kept_count
                     # Not proved: search on, as without the shortcut (and find it again).
@@ -235,7 +239,7 @@ def _search(
             )
             if d > horizon or none_uncontested(
                 state, candidate, listed, start, stride, others_r, others_c, lands,
-                energy, found, spare, 8 * stamp + JUMP_TRIES + 1,
+                energy, found, spare, _SPARE_MARKS * (stamp + 1) - 1,
             ):  # fmt: skip
                 return rank, v, kept_count
     if best1 >= 0:
@@ -641,7 +645,7 @@ class TargetSearch:
                 self.stamp += 1
                 if not none_uncontested(
                     self.state, candidate, listed, start, stride, rows, cols, lands, energy,
-                    self._few, self._spare, 8 * self.stamp,
+                    self._few, self._spare, _SPARE_MARKS * self.stamp,
                 ):  # fmt: skip
                     return None
         test = (moves, limit, stride, rows, cols, lands, energy, self._rivals[:-1])
@@ -687,7 +691,8 @@ class TargetSearch:
         energy: tuple[float, float, float, float, float],
     ) -> tuple[int, int, list[int]] | None:
         """``first_among`` with this search's scratch arrays: (rank, cell, path)."""
-        self.stamp += 1
+        stamp = self.stamp + 1
+        self.stamp += AMONG_MARKS
         rank, cell = first_among(
             self.state,
             self.candidate,
@@ -702,7 +707,7 @@ class TargetSearch:
             self.lands,
             energy,
             self.seen,
-            self.stamp,
+            stamp,
             self.parent,
             self.queue,
         )

@@ -339,51 +339,89 @@ def _behind_a_wall(uncovered: list[tuple[int, int]]) -> MapBelief:
     return belief
 
 
-@settings(max_examples=300, deadline=None)
-@given(
-    seed=st.integers(0, 2**32 - 1),
-    agents=st.integers(0, 6),
-    hold=st.sampled_from([0, 2, 5]),
-    rank=st.integers(0, 2),
-)
-def test_targets_as_far_as_the_bound_are_found_as_breadth_first(
-    seed: int, agents: int, hold: int, rank: int
-) -> None:
-    """With no target nearer than the bound by Manhattan distance, the depth-first
-    walk finds the target the breadth-first search reaches first, by the same
-    path, on maps of scattered walls, rooms and unknown cells."""
+def _walk_case(seed: int, agents: int):
+    """A known map (scattered walls or rooms), partly sensed, a start on it, its
+    uncovered cells with their lower bounds from the start (``way_at_least``),
+    other agents and an energy state."""
     rng = np.random.default_rng(seed)
     belief, _ = _swept_map(rng, seed, rng.uniform(0.0, 0.9))
     for i in list(belief.uncovered):  # sensed a little: unknown cells among the known
         if rng.random() < 0.1:
             belief.state[i] = 0
     search = TargetSearch(belief)
-    stride = belief.stride
+    lands = _lands(search)
     free = [i for i in range(len(belief.state)) if belief.state[i] == int(CellState.FREE)]
     start = free[int(rng.integers(0, len(free)))]
-    r0, c0 = divmod(start, stride)
     uncovered = sorted(belief.uncovered)
-    if not uncovered:
-        return
-    far = uncovered[int(rng.integers(0, len(uncovered)))]
-    bound = max(1, abs(far // stride - r0) + abs(far % stride - c0))
-    ring = [v for v in uncovered if abs(v // stride - r0) + abs(v % stride - c0) == bound]
-    beyond = [v for v in uncovered if abs(v // stride - r0) + abs(v % stride - c0) > bound]
-    picked = [v for v in ring if rng.random() < 0.3] + [v for v in beyond if rng.random() < 0.02]
-    targets = np.array(rng.permutation(picked), dtype=np.int64)
+    bounds = {v: bounded_search.way_at_least(start, v, belief.stride, lands) for v in uncovered}
     others = (rng.integers(0, SIDE, agents), rng.integers(0, SIDE, agents))
     energy = (float(rng.uniform(20.0, 100.0)), float(rng.choice([0.0, 0.5])), 20.0, 0.5, 80.0)
-    results = []
-    for walk in (bounded_search.first_tied, bounded_search.first_reached):
-        search.stamp += 1
-        found = walk(
-            search.state, search.candidate, targets, start, stride, bound, rank, hold,
-            *others, _lands(search), energy, search.seen, search.stamp, search.parent,
-            search.queue,
-        )  # fmt: skip
-        path = search._unwind(start, found[1]) if found[1] >= 0 else None
-        results.append((found, path))
-    assert results[0] == results[1]
+    return rng, search, lands, start, bounds, others, energy
+
+
+def _walk_cases(test):
+    """The cases of the walk tests: a map (``_walk_case``), the others, the hold
+    radius and the worst rank taken."""
+    cases = given(
+        seed=st.integers(0, 2**32 - 1),
+        agents=st.integers(0, 6),
+        hold=st.sampled_from([0, 2, 5]),
+        rank=st.integers(0, 2),
+    )
+    return settings(max_examples=300, deadline=None)(cases(test))
+
+
+def _walked(walk, search: TargetSearch, lands, targets, start, bound, rank, hold, others, energy):
+    search.stamp += bounded_search.AMONG_MARKS
+    found = walk(
+        search.state, search.candidate, targets, start, search.belief.stride, bound, rank,
+        hold, *others, lands, energy, search.seen, search.stamp, search.parent, search.queue,
+    )  # fmt: skip
+    return found, search._unwind(start, found[1]) if found[1] >= 0 else None
+
+
+@_walk_cases
+def test_targets_as_far_as_the_bound_are_found_as_breadth_first(
+    seed: int, agents: int, hold: int, rank: int
+) -> None:
+    """With no target nearer than the bound by its lower bounds (the Manhattan
+    distance, or a landmark's: in rooms most are), the depth-first walk finds
+    the target the breadth-first search reaches first, by the same path, on
+    maps of scattered walls, rooms and unknown cells."""
+    rng, search, lands, start, bounds, others, energy = _walk_case(seed, agents)
+    if not bounds:
+        return
+    far = list(bounds)[int(rng.integers(0, len(bounds)))]
+    bound = max(1, bounds[far])
+    ring = [v for v, b in bounds.items() if b == bound]
+    beyond = [v for v, b in bounds.items() if b > bound]
+    picked = [v for v in ring if rng.random() < 0.3] + [v for v in beyond if rng.random() < 0.02]
+    targets = np.array(rng.permutation(picked), dtype=np.int64)
+    case = (search, lands, targets, start, bound, rank, hold, others, energy)
+    walked = _walked(bounded_search.first_tied, *case)
+    assert walked == _walked(bounded_search.first_reached, *case)
+
+
+@_walk_cases
+def test_first_among_is_what_the_breadth_first_search_reaches(
+    seed: int, agents: int, hold: int, rank: int
+) -> None:
+    """``first_among`` (a walk out to the least lower bound first, then the
+    search) returns what the breadth-first search bounded to the same targets
+    does, by the same path, whatever their bounds."""
+    rng, search, lands, start, bounds, others, energy = _walk_case(seed, agents)
+    near = [v for v, b in bounds.items() if b < UNREACHED]
+    if not near:
+        return
+    picked = [v for v in near if rng.random() < float(rng.choice([0.01, 0.05, 0.3]))]
+    if not picked:
+        picked = [near[int(rng.integers(0, len(near)))]]
+    least = min(bounds[v] for v in picked)
+    bound = least + int(rng.integers(0, 2 * SIDE))
+    targets = np.array(rng.permutation(picked), dtype=np.int64)
+    case = (search, lands, targets, start, bound, rank, hold, others, energy)
+    walked = _walked(bounded_search.first_among, *case)
+    assert walked == _walked(bounded_search.first_reached, *case)
 
 
 @settings(max_examples=200, deadline=None)
