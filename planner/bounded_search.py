@@ -426,6 +426,9 @@ def first_tied(
             count += 1
     if count == 0:
         return -1, -1
+    if all_away(taken[:count], start, bound, lands):
+        return descent(state, taken[:count], ranks, start, stride, bound, lands, seen, stamp,
+                       parent, stack)  # fmt: skip
     steps = (-stride, stride, 1, -1)
     tried = np.zeros(bound + 1, dtype=np.int8)  # the moves tried from each cell of the walk
     seen[start] = stamp
@@ -457,6 +460,106 @@ def first_tied(
         stack[depth] = v
         tried[depth] = 0
     return -1, -1
+
+
+@njit(cache=True, nogil=True)
+def all_away(targets: np.ndarray, start: int, bound: int, lands: np.ndarray) -> bool:
+    """Is each target ``bound`` farther than the start from some landmark? (Then
+    the ways there lead away from it, and ``descent`` is the cheaper walk.)"""
+    for i in range(targets.size):
+        t = targets[i]
+        away = False
+        for k in range(lands.shape[1]):
+            if lands[start, k] < UNREACHED and lands[t, k] - lands[start, k] == bound:
+                away = True
+                break
+        if not away:
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def descent(
+    state: np.ndarray,
+    taken: np.ndarray,
+    ranks: np.ndarray,
+    start: int,
+    stride: int,
+    bound: int,
+    lands: np.ndarray,
+    seen: np.ndarray,
+    stamp: int,
+    parent: np.ndarray,
+    queue: np.ndarray,
+) -> tuple[int, int]:
+    """``first_tied``'s answer found from the other end: a breadth-first search
+    from the ``taken`` targets (their ranks in ``ranks``) out to the start,
+    over the cells whose lower bound to the start is within what is left of
+    ``bound``, then a descent from the start.
+
+    The search's depth is each cell's distance from the nearest target, by
+    the argument of ``first_tied`` turned round. From the start, out at
+    ``bound`` from them, the first of N, S, E, W one nearer to them, in turn,
+    gives the first way the forward walk finds, and never a step back: no
+    dead end is entered. The walk forward along a way that leads away from
+    a landmark may enter every branch that leads away from it too (in a
+    maze, all the rooms beyond the start); the search back from the targets
+    only the rooms on the ways to them. ``parent`` holds the distances, then
+    the way; ``queue`` the search, then the way.
+    """
+    steps = (-stride, stride, 1, -1)
+    tail = 0
+    for i in range(taken.size):
+        t = taken[i]
+        if seen[t] != stamp:
+            seen[t] = stamp
+            parent[t] = 0
+            queue[tail] = t
+            tail += 1
+    head = 0
+    level_end = tail
+    depth = 0
+    reached = False
+    while head < tail and not reached:
+        if head == level_end:
+            level_end = tail
+            depth += 1
+            if depth >= bound:
+                break
+        u = queue[head]
+        head += 1
+        for k in range(4):
+            w = u + steps[k]
+            if state[w] != _FREE or seen[w] == stamp:
+                continue
+            if not way_within(w, start, bound - depth - 1, stride, lands):
+                continue
+            seen[w] = stamp
+            parent[w] = depth + 1
+            if w == start:
+                reached = True
+                break
+            queue[tail] = w
+            tail += 1
+    if not reached:
+        return -1, -1
+    v = start
+    for d in range(bound):
+        want = bound - d - 1
+        for k in range(4):
+            w = v + steps[k]
+            if seen[w] == stamp and state[w] == _FREE and parent[w] == want:
+                break
+        queue[d] = w
+        v = w
+    previous = start
+    for d in range(bound):
+        parent[queue[d]] = previous
+        previous = queue[d]
+    for i in range(taken.size):
+        if taken[i] == v:
+            return ranks[i], v
+    return -1, -1  # not reached: each cell one nearer has a neighbour nearer still
 
 
 @njit(cache=True, nogil=True)

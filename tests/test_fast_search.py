@@ -344,16 +344,23 @@ def _walk_case(seed: int, agents: int):
     uncovered cells with their lower bounds from the start (``way_at_least``),
     other agents and an energy state."""
     rng = np.random.default_rng(seed)
-    belief, _ = _swept_map(rng, seed, rng.uniform(0.0, 0.9))
-    for i in list(belief.uncovered):  # sensed a little: unknown cells among the known
-        if rng.random() < 0.1:
-            belief.state[i] = 0
+    swept, _ = _swept_map(rng, seed, rng.uniform(0.0, 0.9))
+    # Sensed a little: unknown cells among the known (as found, so that the distances
+    # from the landmarks are those of the known map).
+    belief = MapBelief(swept.shape, swept.charger)
+    for i in range(len(swept.state)):
+        known = i not in swept.uncovered or rng.random() >= 0.1
+        if swept.state[i] == int(CellState.FREE) and known:
+            belief.mark_free(i)
+            if i not in swept.uncovered:
+                belief.cover(belief.cell(i), 1)
     search = TargetSearch(belief)
     lands = _lands(search)
     free = [i for i in range(len(belief.state)) if belief.state[i] == int(CellState.FREE)]
     start = free[int(rng.integers(0, len(free)))]
-    uncovered = sorted(belief.uncovered)
-    bounds = {v: bounded_search.way_at_least(start, v, belief.stride, lands) for v in uncovered}
+    stride = belief.stride
+    bounds = {v: bounded_search.way_at_least(start, v, stride, lands) for v in belief.uncovered}
+    bounds = {v: b for v, b in sorted(bounds.items()) if b < UNREACHED // 2}  # else unreachable
     others = (rng.integers(0, SIDE, agents), rng.integers(0, SIDE, agents))
     energy = (float(rng.uniform(20.0, 100.0)), float(rng.choice([0.0, 0.5])), 20.0, 0.5, 80.0)
     return rng, search, lands, start, bounds, others, energy
