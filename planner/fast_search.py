@@ -673,8 +673,20 @@ class TargetSearch:
                 way_memo.keep(kept, start, goal, moves, self.belief, claimed)
         if count == self.RIVALS:
             return None  # too many to look at one by one: the search is as quick
-        if count == 0 and self._still_shortest(start, goal, moves, known_at):
-            return rank, goal, way
+        if self._still_shortest(start, goal, moves, known_at):
+            if count == 0:
+                return rank, goal, way
+            # ``goal`` is as far as ``way``: only a rival nearer comes first, or one
+            # as near whose way comes first in the search's order (left to the
+            # search below). Bounded to the ways to the rivals alone, the search
+            # leaves out the cells near the way to the target.
+            found = self._first_among(
+                start, self._rivals[:count], moves, rank, hold, others, energy
+            )
+            if found is None:
+                return rank, goal, way
+            if len(found[2]) < moves:
+                return found
         self._rivals[count] = goal
         return self._first_among(
             start, self._rivals[: count + 1], moves, rank, hold, others, energy
