@@ -548,7 +548,7 @@ def descent(
         want = bound - d - 1
         for k in range(4):
             w = v + steps[k]
-            if seen[w] == stamp and state[w] == _FREE and parent[w] == want:
+            if seen[w] == stamp and parent[w] == want:  # marked here: free
                 break
         queue[d] = w
         v = w
