@@ -426,7 +426,7 @@ def first_tied(
             count += 1
     if count == 0:
         return -1, -1
-    if all_away(taken[:count], start, bound, lands):
+    if all_away(taken[:count], start, stride, bound, lands):
         return descent(state, taken[:count], ranks, start, stride, bound, lands, seen, stamp,
                        parent, stack)  # fmt: skip
     steps = (-stride, stride, 1, -1)
@@ -463,11 +463,17 @@ def first_tied(
 
 
 @njit(cache=True, nogil=True)
-def all_away(targets: np.ndarray, start: int, bound: int, lands: np.ndarray) -> bool:
-    """Is each target ``bound`` farther than the start from some landmark? (Then
-    the ways there lead away from it, and ``descent`` is the cheaper walk.)"""
+def all_away(targets: np.ndarray, start: int, stride: int, bound: int, lands: np.ndarray) -> bool:
+    """Is each target ``bound`` farther than the start from some landmark, and
+    farther than its Manhattan distance? (Then the ways there lead away from
+    it and round walls, and ``descent`` is the cheaper walk. On open ground,
+    where the way is as long as the Manhattan distance, the forward walk
+    runs straight to the target, and the search back would cover the whole
+    rectangle between them.)"""
     for i in range(targets.size):
         t = targets[i]
+        if abs(t // stride - start // stride) + abs(t % stride - start % stride) == bound:
+            return False
         away = False
         for k in range(lands.shape[1]):
             if lands[start, k] < UNREACHED and lands[t, k] - lands[start, k] == bound:
