@@ -565,7 +565,7 @@ def descent(
     for i in range(taken.size):
         if taken[i] == v:
             return ranks[i], v
-    return -1, -1  # not reached: each cell one nearer has a neighbour nearer still
+    return -1, -1  # never: the descent ends on a target (depth 0)
 
 
 @njit(cache=True, nogil=True)

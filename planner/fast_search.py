@@ -703,9 +703,24 @@ class TargetSearch:
         energy: tuple[float, float, float, float, float],
     ) -> tuple[int, int, list[int]] | None:
         """``first_among`` with this search's scratch arrays: (rank, cell, path)."""
+        rank, cell = self._first_reached(start, targets, bound, rank, hold, others, energy)
+        return None if rank < 0 else (rank, cell, self._unwind(start, cell))
+
+    def _first_reached(
+        self,
+        start: int,
+        targets: np.ndarray,
+        bound: int,
+        rank: int,
+        hold: int,
+        others: tuple[np.ndarray, np.ndarray],
+        energy: tuple[float, float, float, float, float],
+    ) -> tuple[int, int]:
+        """``first_among`` with this search's scratch arrays: (rank, cell), the way
+        there left in ``parent``."""
         stamp = self.stamp + 1
         self.stamp += AMONG_MARKS
-        rank, cell = first_among(
+        return first_among(
             self.state,
             self.candidate,
             targets,
@@ -723,7 +738,6 @@ class TargetSearch:
             self.parent,
             self.queue,
         )
-        return None if rank < 0 else (rank, cell, self._unwind(start, cell))
 
     def _all_left_to_others(
         self,
@@ -762,8 +776,10 @@ class TargetSearch:
         bound = UNREACHED
         if cost > 0:  # the farthest any of them can be afforded, and a move to spare
             bound = int((battery - floor) / cost) - int(self.home[targets].min()) + 1
-        found = self._first_among(start, targets, min(bound, UNREACHED), 2, hold, others, energy)
-        return True, None if found is None else HELD_BACK
+        rank, _ = self._first_reached(
+            start, targets, min(bound, UNREACHED), 2, hold, others, energy
+        )
+        return True, None if rank < 0 else HELD_BACK
 
     def _still_shortest(
         self, start: int, goal: int, moves: int, known_at: tuple[int, int] | None
