@@ -36,9 +36,15 @@ MOST = 8
 #: landmarks are kept.
 DETOUR = 1.25
 #: Known free cells before the first landmarks are chosen; they are chosen again
-#: each time the known free cells have doubled since (or grown by as many again,
-#: while the charger reaches too few cells for all of them).
+#: each time the known free cells have grown ``REGROWTH`` times over since (or by as many
+#: again, while the charger reaches too few cells for all of them).
 FIRST_CHOICE = 256
+#: The growth of the known free cells after which the landmarks are chosen again:
+#: as the map is explored, the farthest cells move out with the frontier, and
+#: landmarks left behind it bound the ways to the new targets out there poorly
+#: (rooms 1000x1000 with 50 agents: transits of 4000 moves with bounds 600 short
+#: of it). Choosing again costs a search of the known map for each landmark.
+REGROWTH = 1.1
 
 
 @njit(cache=True, nogil=True)
@@ -165,7 +171,9 @@ class Landmarks:
         if belief.free_count >= self._choose_at:
             # Fewer than wanted: the charger reaches few cells of what is known yet.
             few = self._choose() < MOST
-            self._choose_at = belief.free_count + FIRST_CHOICE if few else 2 * belief.free_count
+            self._choose_at = (
+                belief.free_count + FIRST_CHOICE if few else int(REGROWTH * belief.free_count)
+            )
         return self.lands
 
     def _choose(self) -> int:
