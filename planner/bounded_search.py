@@ -26,8 +26,8 @@ _FREE = int(CellState.FREE)
 JUMP_AFTER = 4096
 #: Bounds ``first_lesser`` tries before leaving it to the search.
 JUMP_TRIES = 4
-#: The marks of ``seen`` one ``first_among`` uses (a walk, then a search).
-AMONG_MARKS = 2
+#: The marks of ``seen`` one ``first_among`` uses (a walk, a search back, a search).
+AMONG_MARKS = 3
 
 
 @njit(cache=True, nogil=True)
@@ -320,9 +320,11 @@ def first_among(
     the rival that takes the agent's target from it is most often as near
     as its bound says, and the walk, along the ways to it only, is far
     cheaper than the search of everything within ``bound``. Else (or when
-    that bound is ``bound``, the only try) ``first_reached``, breadth-first:
-    any target it finds is also as far as that bound or farther.
-    ``stamp`` and ``stamp + 1`` mark ``seen``.
+    that bound is ``bound``, the only try) the search of everything within
+    ``bound``: from the targets back (``first_back``) where the ways lead
+    away from a landmark (``mostly_away``), else, or when that cannot tell,
+    ``first_reached``, breadth-first from the start. ``stamp`` to
+    ``stamp + 2`` mark ``seen``.
     """
     least = np.int64(UNREACHED)
     for i in range(targets.size):
@@ -337,9 +339,16 @@ def first_among(
     )  # fmt: skip
     if found >= 0 or least == bound:
         return found, cell
+    if mostly_away(targets, start, stride, lands):
+        found, cell = first_back(
+            state, candidate, targets, start, stride, bound, rank, hold,
+            others_r, others_c, lands, energy, seen, stamp + 1, parent, queue,
+        )  # fmt: skip
+        if found >= -1:
+            return found, cell
     return first_reached(
         state, candidate, targets, start, stride, bound, rank, hold,
-        others_r, others_c, lands, energy, seen, stamp + 1, parent, queue,
+        others_r, others_c, lands, energy, seen, stamp + 2, parent, queue,
     )  # fmt: skip
 
 
@@ -499,25 +508,46 @@ def descent(
     queue: np.ndarray,
 ) -> tuple[int, int]:
     """``first_tied``'s answer found from the other end: a breadth-first search
-    from the ``taken`` targets (their ranks in ``ranks``) out to the start,
-    over the cells whose lower bound to the start is within what is left of
-    ``bound``, then a descent from the start.
+    from the ``taken`` targets (their ranks in ``ranks``) out to the start
+    (``search_back``), then a descent from the start (``descend``).
 
-    The search's depth is each cell's distance from the nearest target, by
-    the argument of ``first_tied`` turned round. From the start, out at
-    ``bound`` from them, the first of N, S, E, W one nearer to them, in turn,
-    gives the first way the forward walk finds, and never a step back: no
-    dead end is entered. The walk forward along a way that leads away from
-    a landmark may enter every branch that leads away from it too (in a
-    maze, all the rooms beyond the start); the search back from the targets
-    only the rooms on the ways to them. ``parent`` holds the distances, then
-    the way; ``queue`` the search, then the way.
+    The walk forward along a way that leads away from a landmark may enter
+    every branch that leads away from it too (in a maze, all the rooms
+    beyond the start); the search back from the targets only the rooms on
+    the ways to them.
     """
+    if search_back(state, taken, start, stride, bound, lands, seen, stamp, parent, queue) < 0:
+        return -1, -1
+    v = descend(start, bound, stride, seen, stamp, parent, queue)
+    for i in range(taken.size):
+        if taken[i] == v:
+            return ranks[i], v
+    return -1, -1  # never: the descent ends on a target (depth 0)
+
+
+@njit(cache=True, nogil=True)
+def search_back(
+    state: np.ndarray,
+    sources: np.ndarray,
+    start: int,
+    stride: int,
+    bound: int,
+    lands: np.ndarray,
+    seen: np.ndarray,
+    stamp: int,
+    parent: np.ndarray,
+    queue: np.ndarray,
+) -> int:
+    """The distance from the start to the nearest of the ``sources`` (not the
+    start), or -1 when none is within ``bound``: a breadth-first search from
+    them all, over the cells whose lower bound to the start is within what is
+    left of ``bound`` (every cell of a way that short is). Its depth, each
+    cell's distance from the nearest source, is left in ``parent``."""
     steps = (-stride, stride, 1, -1)
     tail = 0
-    for i in range(taken.size):
-        t = taken[i]
-        if seen[t] != stamp:
+    for i in range(sources.size):
+        t = sources[i]
+        if seen[t] != stamp and t != start:
             seen[t] = stamp
             parent[t] = 0
             queue[tail] = t
@@ -525,8 +555,7 @@ def descent(
     head = 0
     level_end = tail
     depth = 0
-    reached = False
-    while head < tail and not reached:
+    while head < tail:
         if head == level_end:
             level_end = tail
             depth += 1
@@ -543,15 +572,36 @@ def descent(
             seen[w] = stamp
             parent[w] = depth + 1
             if w == start:
-                reached = True
-                break
+                return depth + 1
             queue[tail] = w
             tail += 1
-    if not reached:
-        return -1, -1
+    return -1
+
+
+@njit(cache=True, nogil=True)
+def descend(
+    start: int,
+    depth: int,
+    stride: int,
+    seen: np.ndarray,
+    stamp: int,
+    parent: np.ndarray,
+    queue: np.ndarray,
+) -> int:
+    """After ``search_back`` found the start ``depth`` moves from its sources:
+    the source the breadth-first search from the start reaches first at that
+    distance, ``parent`` then holding the way there.
+
+    That search reaches a cell first by the shortest way whose moves come
+    first in the order N, S, E, W, and of the cells at one distance first
+    the one at the end of the first of these ways (``first_tied``); from the
+    start, the first of N, S, E, W one move nearer to the sources, in turn,
+    is that way, and never a step back: no dead end is entered.
+    """
+    steps = (-stride, stride, 1, -1)
     v = start
-    for d in range(bound):
-        want = bound - d - 1
+    for d in range(depth):
+        want = depth - d - 1
         for k in range(4):
             w = v + steps[k]
             if seen[w] == stamp and parent[w] == want:  # marked here: free
@@ -559,13 +609,84 @@ def descent(
         queue[d] = w
         v = w
     previous = start
-    for d in range(bound):
+    for d in range(depth):
         parent[queue[d]] = previous
         previous = queue[d]
-    for i in range(taken.size):
-        if taken[i] == v:
-            return ranks[i], v
-    return -1, -1  # never: the descent ends on a target (depth 0)
+    return v
+
+
+@njit(cache=True, nogil=True)
+def first_back(
+    state: np.ndarray,
+    candidate: np.ndarray,
+    targets: np.ndarray,
+    start: int,
+    stride: int,
+    bound: int,
+    rank: int,
+    hold: int,
+    others_r: np.ndarray,
+    others_c: np.ndarray,
+    lands: np.ndarray,
+    energy: tuple[float, float, float, float, float],
+    seen: np.ndarray,
+    stamp: int,
+    parent: np.ndarray,
+    queue: np.ndarray,
+) -> tuple[int, int]:
+    """``first_reached`` found from the other end (``search_back``, ``descend``),
+    or (-2, -1) when only ``first_reached`` can tell.
+
+    A target the agent cannot take at its lower bound (``way_at_least``) it
+    cannot take farther either: the rank and the battery left only get worse
+    with the distance. From the others, the search back finds the nearest,
+    and the descent the first of those as near: the breadth-first search's
+    answer when the agent can take it there. Else (seldom) that search goes
+    on past it, and only it can tell.
+    """
+    sources = np.empty(targets.size, dtype=np.int64)
+    count = 0
+    for i in range(targets.size):
+        t = targets[i]
+        if candidate[t] == 0:
+            continue
+        at_least = way_at_least(start, t, stride, lands)
+        if at_least > bound:
+            continue
+        if target_rank(t, at_least, rank, hold, stride, others_r, others_c, lands, energy) >= 0:
+            sources[count] = t
+            count += 1
+    near = search_back(state, sources[:count], start, stride, bound, lands, seen, stamp,
+                       parent, queue)  # fmt: skip
+    if near < 0:
+        return -1, -1
+    v = descend(start, near, stride, seen, stamp, parent, queue)
+    found = target_rank(v, near, rank, hold, stride, others_r, others_c, lands, energy)
+    return (found, v) if found >= 0 else (-2, -1)
+
+
+@njit(cache=True, nogil=True)
+def mostly_away(targets: np.ndarray, start: int, stride: int, lands: np.ndarray) -> bool:
+    """Is the best lower bound of the way to each target a landmark's that it is
+    farther from than the start is? (Then the ways lead away from it, and the
+    search back from the targets, bounded by the lower bounds to the start,
+    keeps out of the branches beside them, where the search forward from
+    the start enters them all: see ``descent``.)"""
+    for i in range(targets.size):
+        t = targets[i]
+        away = 0
+        toward = abs(t // stride - start // stride) + abs(t % stride - start % stride)
+        for k in range(lands.shape[1]):
+            if lands[start, k] >= UNREACHED or lands[t, k] >= UNREACHED:
+                continue
+            gap = lands[t, k] - lands[start, k]
+            if gap > away:
+                away = gap
+            elif -gap > toward:
+                toward = -gap
+        if away <= toward:
+            return False
+    return True
 
 
 @njit(cache=True, nogil=True)

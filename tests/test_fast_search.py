@@ -387,6 +387,17 @@ def _walked(walk, search: TargetSearch, lands, targets, start, bound, rank, hold
     return found, search._unwind(start, found[1]) if found[1] >= 0 else None
 
 
+def _any_targets(rng, bounds: dict[int, int]) -> tuple[np.ndarray, int]:
+    """Some of the uncovered cells (few or many), in any order, and a bound at
+    least as far as the nearest of them by ``bounds``."""
+    near = list(bounds)
+    picked = [v for v in near if rng.random() < float(rng.choice([0.01, 0.05, 0.3]))]
+    if not picked:
+        picked = [near[int(rng.integers(0, len(near)))]]
+    bound = min(bounds[v] for v in picked) + int(rng.integers(0, 2 * SIDE))
+    return np.array(rng.permutation(picked), dtype=np.int64), bound
+
+
 @_walk_cases
 def test_targets_as_far_as_the_bound_are_found_as_breadth_first(
     seed: int, agents: int, hold: int, rank: int
@@ -417,18 +428,40 @@ def test_first_among_is_what_the_breadth_first_search_reaches(
     search) returns what the breadth-first search bounded to the same targets
     does, by the same path, whatever their bounds."""
     rng, search, lands, start, bounds, others, energy = _walk_case(seed, agents)
-    near = list(bounds)
-    if not near:
+    if not bounds:
         return
-    picked = [v for v in near if rng.random() < float(rng.choice([0.01, 0.05, 0.3]))]
-    if not picked:
-        picked = [near[int(rng.integers(0, len(near)))]]
-    least = min(bounds[v] for v in picked)
-    bound = least + int(rng.integers(0, 2 * SIDE))
-    targets = np.array(rng.permutation(picked), dtype=np.int64)
+    targets, bound = _any_targets(rng, bounds)
     case = (search, lands, targets, start, bound, rank, hold, others, energy)
     walked = _walked(bounded_search.first_among, *case)
     assert walked == _walked(bounded_search.first_reached, *case)
+
+
+@_walk_cases
+def test_the_search_back_finds_what_the_search_forward_does(
+    seed: int, agents: int, hold: int, rank: int
+) -> None:
+    """``first_back`` (from the targets back to the start, then down to the
+    nearest) returns what the breadth-first search from the start does, by
+    the same path, or says that only that search can tell, whatever the
+    targets and their bounds. Where the nearest target's lower bound is
+    short of its distance, another agent is put as near to it as that bound:
+    uncontested there, the target is taken from the agent (which takes
+    uncontested targets only) at its distance, and the search forward goes
+    on past it."""
+    rng, search, lands, start, bounds, others, energy = _walk_case(seed, agents)
+    if not bounds:
+        return
+    targets, bound = _any_targets(rng, bounds)
+    distance = bfs_distances(search.belief, start)
+    nearest = min(targets.tolist(), key=lambda v: distance.get(v, UNREACHED))
+    if bounds[nearest] < distance.get(nearest, UNREACHED):
+        row, col = divmod(nearest, search.belief.stride)
+        others = (np.append(others[0], row - 1 + bounds[nearest]), np.append(others[1], col - 1))
+        rank = 0
+    case = (search, lands, targets, start, bound, rank, hold, others, energy)
+    back = _walked(bounded_search.first_back, *case)
+    if back[0][0] != -2:
+        assert back == _walked(bounded_search.first_reached, *case)
 
 
 @settings(max_examples=200, deadline=None)
