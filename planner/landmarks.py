@@ -44,8 +44,8 @@ FIRST_CHOICE = 256
 #: landmarks left behind it bound the ways to the new targets out there poorly
 #: (rooms 1000x1000 with 50 agents: transits of 4000 moves with bounds 600 short
 #: of it). Choosing again costs a search of the known map for each landmark: on
-#: that map, the decisions to iteration 18000 took 291 / 126 / 88 / 108 s with
-#: 2 / 1.1 / 1.05 / 1.02.
+#: that map, the decisions to iteration 18000 took 118 / 88 / 108 s with
+#: 1.1 / 1.05 / 1.02 (291 s with 2, before ``first_back``).
 REGROWTH = 1.05
 
 
