@@ -639,10 +639,11 @@ def first_back(
 
     A target the agent cannot take at its lower bound (``way_at_least``) it
     cannot take farther either: the rank and the battery left only get worse
-    with the distance. From the others, the search back finds the nearest,
-    and the descent the first of those as near: the breadth-first search's
-    answer when the agent can take it there. Else (seldom) that search goes
-    on past it, and only it can tell.
+    with the distance. From the targets it can take at their lower bounds,
+    the search back finds the distance to the nearest, and the descent the
+    first of those that near: the breadth-first search's answer when the
+    agent can take it there. Else (seldom) that search goes on past it, and
+    only it can tell.
     """
     sources = np.empty(targets.size, dtype=np.int64)
     count = 0

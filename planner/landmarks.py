@@ -36,8 +36,8 @@ MOST = 8
 #: landmarks are kept.
 DETOUR = 1.25
 #: Known free cells before the first landmarks are chosen; they are chosen again
-#: each time the known free cells have grown ``REGROWTH`` times over since (or by as many
-#: again, while the charger reaches too few cells for all of them).
+#: each time the known free cells have grown ``REGROWTH`` times over since (or by
+#: as many again, while the charger reaches too few cells for all of them).
 FIRST_CHOICE = 256
 #: The growth of the known free cells after which the landmarks are chosen again:
 #: as the map is explored, the farthest cells move out with the frontier, and
