@@ -435,7 +435,7 @@ def first_tied(
             count += 1
     if count == 0:
         return -1, -1
-    if all_away(taken[:count], start, stride, bound, lands):
+    if mostly_away(taken[:count], start, stride, lands):
         return descent(state, taken[:count], ranks, start, stride, bound, lands, seen, stamp,
                        parent, stack)  # fmt: skip
     steps = (-stride, stride, 1, -1)
@@ -472,23 +472,29 @@ def first_tied(
 
 
 @njit(cache=True, nogil=True)
-def all_away(targets: np.ndarray, start: int, stride: int, bound: int, lands: np.ndarray) -> bool:
-    """Is each target ``bound`` farther than the start from some landmark, and
-    farther than its Manhattan distance? (Then the ways there lead away from
-    it and round walls, and ``descent`` is the cheaper walk. On open ground,
-    where the way is as long as the Manhattan distance, the forward walk
-    runs straight to the target, and the search back would cover the whole
-    rectangle between them.)"""
+def mostly_away(targets: np.ndarray, start: int, stride: int, lands: np.ndarray) -> bool:
+    """Is the best lower bound of the way to each target a landmark's that it is
+    farther from than the start is, and more than its Manhattan distance? Then
+    the ways lead away from the landmark round walls, and a search back from
+    the targets, bounded by the lower bounds to the start, keeps out of the
+    branches beside them, where the search or walk forward from the start
+    enters them all (``descent``, ``first_back``). On open ground, where the
+    way is as long as the Manhattan distance, the forward walk runs straight
+    to the target, and the search back would cover the whole rectangle
+    between them."""
     for i in range(targets.size):
         t = targets[i]
-        if abs(t // stride - start // stride) + abs(t % stride - start % stride) == bound:
-            return False
-        away = False
+        away = 0
+        toward = abs(t // stride - start // stride) + abs(t % stride - start % stride)
         for k in range(lands.shape[1]):
-            if lands[start, k] < UNREACHED and lands[t, k] - lands[start, k] == bound:
-                away = True
-                break
-        if not away:
+            if lands[start, k] >= UNREACHED or lands[t, k] >= UNREACHED:
+                continue
+            gap = lands[t, k] - lands[start, k]
+            if gap > away:
+                away = gap
+            elif -gap > toward:
+                toward = -gap
+        if away <= toward:
             return False
     return True
 
@@ -664,30 +670,6 @@ def first_back(
     v = descend(start, near, stride, seen, stamp, parent, queue)
     found = target_rank(v, near, rank, hold, stride, others_r, others_c, lands, energy)
     return (found, v) if found >= 0 else (-2, -1)
-
-
-@njit(cache=True, nogil=True)
-def mostly_away(targets: np.ndarray, start: int, stride: int, lands: np.ndarray) -> bool:
-    """Is the best lower bound of the way to each target a landmark's that it is
-    farther from than the start is? (Then the ways lead away from it, and the
-    search back from the targets, bounded by the lower bounds to the start,
-    keeps out of the branches beside them, where the search forward from
-    the start enters them all: see ``descent``.)"""
-    for i in range(targets.size):
-        t = targets[i]
-        away = 0
-        toward = abs(t // stride - start // stride) + abs(t % stride - start % stride)
-        for k in range(lands.shape[1]):
-            if lands[start, k] >= UNREACHED or lands[t, k] >= UNREACHED:
-                continue
-            gap = lands[t, k] - lands[start, k]
-            if gap > away:
-                away = gap
-            elif -gap > toward:
-                toward = -gap
-        if away <= toward:
-            return False
-    return True
 
 
 @njit(cache=True, nogil=True)
