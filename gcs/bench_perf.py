@@ -16,6 +16,9 @@
    vehicles under 20 ms decision latency at the 99th percentile), each met or not,
    when the cases that measure them were run.
 
+Before them, the machine's pace on the day (``gcs.machine_pace``): a fixed workload's
+time, printed and in the JSON, as shared machines drift by a factor of two.
+
 Figures, never pass/fail on time: the machine is shared and noisy. The exit status
 is 1 only when a case did not finish, did not cover its map or lost a vehicle.
 """
@@ -41,6 +44,7 @@ from rich.table import Table
 from gcs.bench_cli import chosen, json_path, parse_settings, positive_numbers, write_json
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
+from gcs.machine_pace import reference_seconds
 from gcs.mission import (
     Mission,
     Origin,
@@ -487,7 +491,16 @@ def run_perf(args: argparse.Namespace) -> int:
     settings = parse_settings(args.changes, "set")
     console = output_console(quiet=False)
     progress = Console(stderr=True)
-    figures: dict[str, Any] = {"machine": platform.platform(), "python": platform.python_version()}
+    pace_s = reference_seconds()
+    figures: dict[str, Any] = {
+        "machine": platform.platform(),
+        "python": platform.python_version(),
+        "reference_s": round(pace_s, 3),
+    }
+    console.print(
+        f"machine pace: the reference workload took {pace_s:.3f} s "
+        "(gcs/machine_pace.py; compare figures only at like paces)"
+    )
     planner_rows: list[dict[str, Any]] = []
     live_rows: list[dict[str, Any]] = []
     if not args.skip_planner:

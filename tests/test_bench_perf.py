@@ -22,7 +22,9 @@ def test_planner_cases_print_and_write_their_figures(tmp_path: Path, capsys) -> 
         ["bench", "perf", "--sizes", "24", "--agents", "1,3", "--skip-live", "--json", str(out)]
     )
     assert code == 0
-    rows = json.loads(out.read_text())["planner"]
+    figures = json.loads(out.read_text())
+    assert figures["reference_s"] > 0  # the machine's pace on the day, beside the figures
+    rows = figures["planner"]
     assert [(r["kind"], r["size"], r["agents"]) for r in rows] == [
         ("rooms", 24, 1),
         ("rooms", 24, 3),
@@ -33,7 +35,8 @@ def test_planner_cases_print_and_write_their_figures(tmp_path: Path, capsys) -> 
         assert r["coverage_pct"] == 100.0 and r["lost"] == 0
         assert r["charges"] >= 1  # the battery keeps the staying alive policy at work
         assert r["peak_mb"] > 0 and r["us_per_agent_step"] > 0
-    assert "offline planner" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "offline planner" in printed and "machine pace" in printed
 
 
 def test_planner_settings_reach_the_cases(tmp_path: Path, capsys, monkeypatch) -> None:
