@@ -321,10 +321,16 @@ def first_among(
     as its bound says, and the walk, along the ways to it only, is far
     cheaper than the search of everything within ``bound``. Else (or when
     that bound is ``bound``, the only try) the search of everything within
-    ``bound``: from the targets back (``first_back``) where the ways lead
-    away from a landmark (``mostly_away``), else, or when that cannot tell,
-    ``first_reached``, breadth-first from the start. ``stamp`` to
-    ``stamp + 2`` mark ``seen``.
+    ``bound``: from the targets back (``first_back``), or when that cannot
+    tell, ``first_reached``, breadth-first from the start. The search back
+    is the cheaper one wherever the ways go: it tests each cell's lower
+    bound to the start alone, where the search forward tests it to each
+    target in turn (up to ``TargetSearch.RIVALS``), and on open ground,
+    where either covers the rectangle between the ends, it is as quick
+    (rooms 1000x1000 with 50 agents, where the ways do not lead away from a
+    landmark: 5.1 s for 16392 such searches back against 8.2 s forward,
+    the same answers but 125 it could not tell). ``stamp`` to ``stamp + 2``
+    mark ``seen``.
     """
     least = np.int64(UNREACHED)
     for i in range(targets.size):
@@ -339,13 +345,12 @@ def first_among(
     )  # fmt: skip
     if found >= 0 or least == bound:
         return found, cell
-    if mostly_away(targets, start, stride, lands):
-        found, cell = first_back(
-            state, candidate, targets, start, stride, bound, rank, hold,
-            others_r, others_c, lands, energy, seen, stamp + 1, parent, queue,
-        )  # fmt: skip
-        if found >= -1:
-            return found, cell
+    found, cell = first_back(
+        state, candidate, targets, start, stride, bound, rank, hold,
+        others_r, others_c, lands, energy, seen, stamp + 1, parent, queue,
+    )  # fmt: skip
+    if found >= -1:
+        return found, cell
     return first_reached(
         state, candidate, targets, start, stride, bound, rank, hold,
         others_r, others_c, lands, energy, seen, stamp + 2, parent, queue,
@@ -477,8 +482,8 @@ def mostly_away(targets: np.ndarray, start: int, stride: int, lands: np.ndarray)
     farther from than the start is, and more than its Manhattan distance? Then
     the ways lead away from the landmark round walls, and a search back from
     the targets, bounded by the lower bounds to the start, keeps out of the
-    branches beside them, where the search or walk forward from the start
-    enters them all (``descent``, ``first_back``). On open ground, where the
+    branches beside them, where the walk forward from the start enters them
+    all (``descent``, for ``first_tied``). On open ground, where the
     way is as long as the Manhattan distance, the forward walk runs straight
     to the target, and the search back would cover the whole rectangle
     between them."""

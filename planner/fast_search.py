@@ -578,6 +578,15 @@ class TargetSearch:
         length = _unwind(self.parent, start, goal, self._way)
         return self._way[length - 1 :: -1].tolist()
 
+    def _way_to(self, start: int, cell: int, way: Sequence[int]) -> Sequence[int]:
+        """The way the last search left from ``start`` to ``cell``, or ``way`` itself
+        when it ends there and is as long: the coordinator keeps the way it is on
+        then (``Coordinator._take_target``), and a fresh list of a way of
+        thousands of moves cost more than the check that found it."""
+        if way and way[-1] == cell and _unwind(self.parent, start, cell, self._way) == len(way):
+            return way
+        return self._unwind(start, cell)
+
     def _confirm(
         self,
         start: int,
@@ -689,7 +698,7 @@ class TargetSearch:
                 return found
         self._rivals[count] = goal
         return self._first_among(
-            start, self._rivals[: count + 1], moves, rank, hold, others, energy
+            start, self._rivals[: count + 1], moves, rank, hold, others, energy, way
         )
 
     def _first_among(
@@ -701,10 +710,12 @@ class TargetSearch:
         hold: int,
         others: tuple[np.ndarray, np.ndarray],
         energy: tuple[float, float, float, float, float],
-    ) -> tuple[int, int, list[int]] | None:
-        """``first_among`` with this search's scratch arrays: (rank, cell, path)."""
+        way: Sequence[int] = (),
+    ) -> tuple[int, int, Sequence[int]] | None:
+        """``first_among`` with this search's scratch arrays: (rank, cell, path),
+        the path ``way`` when that is one as short (``_way_to``)."""
         rank, cell = self._first_reached(start, targets, bound, rank, hold, others, energy)
-        return None if rank < 0 else (rank, cell, self._unwind(start, cell))
+        return None if rank < 0 else (rank, cell, self._way_to(start, cell, way))
 
     def _first_reached(
         self,
@@ -908,7 +919,7 @@ class TargetSearch:
             return None
         if rank == HELD_BACK[0] and hold > 0:
             return HELD_BACK
-        return rank, cell, self._unwind(start, cell)
+        return rank, cell, self._way_to(start, cell, hint[1] if hint is not None else ())
 
 
 def _warm_up() -> None:
