@@ -18,7 +18,7 @@ import time
 from array import array
 from collections import deque
 
-#: The grid's side, in cells: about a tenth of a second on the machines we use.
+#: The grid's side, in cells: a tenth to a fifth of a second on the machines we use.
 SIDE = 400
 REPEATS = 3
 
