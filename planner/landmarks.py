@@ -115,20 +115,47 @@ def _detour(home: np.ndarray, stride: int, charger: int) -> float:
 
 
 @njit(cache=True, nogil=True)
-def _farthest(lands: np.ndarray, used: int) -> int:
-    """The cell the charger reaches whose nearest landmark of the first ``used`` is
-    the farthest (the first such cell), or -1 when none is farther than 0."""
+def _spread(state: np.ndarray, lands: np.ndarray, stride: int, queue: np.ndarray,
+            cells: np.ndarray) -> int:  # fmt: skip
+    """Columns 1 on of ``lands`` afresh, column ``HOME`` as it is: each landmark
+    the cell the charger reaches whose nearest of the charger and the landmarks
+    before it is the farthest (the first such cell), its distances in the next
+    column and the cell in ``cells``. How many were chosen: fewer than the
+    columns when none is farther than 0.
+
+    Each search runs in a column of its own (``dist``: four bytes a cell, where a
+    row of ``lands`` is nine times that), copied into ``lands`` in the pass that
+    also brings each cell's nearest landmark (``near``) up to date: the choice
+    reads each column once, where it read all those before for each landmark."""
+    size = lands.shape[0]
+    near = lands[:, HOME].copy()  # UNREACHED where the charger does not reach
+    dist = np.empty((size, 1), dtype=np.int32)
+    far = _farthest(near)
+    chosen = 0
+    while chosen < lands.shape[1] - 1 and far >= 0:
+        chosen += 1
+        cells[chosen - 1] = far
+        dist[:, 0] = UNREACHED
+        dist[far, 0] = 0
+        _relax(state, dist, 0, far, stride, queue)
+        for v in range(size):
+            d = dist[v, 0]
+            lands[v, chosen] = d
+            if d < near[v]:
+                near[v] = d
+        far = _farthest(near)
+    return chosen
+
+
+@njit(cache=True, nogil=True)
+def _farthest(near: np.ndarray) -> int:
+    """The first cell of the greatest ``near`` short of ``UNREACHED``, or -1 when
+    none is greater than 0."""
     best = 0
     found = -1
-    for v in range(lands.shape[0]):
-        if lands[v, HOME] >= UNREACHED:
-            continue
-        near = lands[v, HOME]
-        for col in range(1, used):
-            if lands[v, col] < near:
-                near = lands[v, col]
-        if near > best:
-            best = near
+    for v in range(near.size):
+        if near[v] < UNREACHED and near[v] > best:
+            best = near[v]
             found = v
     return found
 
@@ -188,15 +215,14 @@ class Landmarks:
                 self.lands = np.ascontiguousarray(self.lands[:, :1])
                 self.cells = self.cells[:1]
             return MOST
-        lands = np.zeros((home.size, 1 + MOST), dtype=np.int32)
-        lands[:, HOME] = home
-        cells = self.cells[:1]
-        while len(cells) <= MOST:
-            far = _farthest(lands, len(cells))
-            if far < 0:
-                break
-            _fill(self._state, lands, len(cells), far, self.belief.stride, self._queue)
-            cells.append(far)
-        self.lands = np.ascontiguousarray(lands[:, : len(cells)])
-        self.cells = cells
-        return len(cells) - 1
+        lands = self.lands
+        if lands.shape[1] != 1 + MOST:
+            lands = np.empty((home.size, 1 + MOST), dtype=np.int32)
+            lands[:, HOME] = home
+        # In place, where it has its columns: a copy of a million rows cost a
+        # sixth of the choice (rooms 1000x1000).
+        found = np.empty(MOST, dtype=np.int64)
+        chosen = _spread(self._state, lands, self.belief.stride, self._queue, found)
+        self.lands = lands if chosen == MOST else np.ascontiguousarray(lands[:, : 1 + chosen])
+        self.cells = self.cells[:1] + found[:chosen].tolist()
+        return chosen

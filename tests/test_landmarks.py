@@ -104,6 +104,35 @@ def test_landmarks_are_chosen_far_apart_as_the_map_is_found(monkeypatch) -> None
     assert len(chosen) > 1  # chosen again as the map grew
 
 
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), walls=st.floats(0.0, 0.4), grown=st.integers(0, 3))
+def test_each_landmark_is_the_first_cell_farthest_from_those_before(
+    seed: int, walls: float, grown: int
+) -> None:
+    """Checked against plain searches, after the map grew a few times (the columns
+    are chosen again in place): landmark k is the first cell the charger reaches
+    whose nearest of the charger and landmarks 1 to k-1 is the farthest."""
+    rng = np.random.default_rng(seed)
+    belief = MapBelief((SIDE, SIDE), (0, 0))
+    marks = Landmarks(belief)
+    free = [(r, c) for r in range(SIDE) for c in range(SIDE) if rng.random() >= walls]
+    order = rng.permutation(len(free))
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(landmarks, "DETOUR", 0.0)
+        for part in np.array_split(order, grown + 1):
+            for k in part:
+                belief.mark_free(belief.index(free[k]))
+            marks.update()
+            marks._choose()
+    _assert_exact(marks)
+    home = _column(belief, belief.charger_index)
+    near = np.where(home < UNREACHED, home, -1)
+    for cell in marks.cells[1:]:
+        assert near.max() > 0 and cell == int(np.argmax(near))
+        near = np.minimum(near, _column(belief, cell))
+    assert len(marks.cells) == 1 + landmarks.MOST or near.max() <= 0
+
+
 def test_open_ground_keeps_the_charger_alone() -> None:
     belief = MapBelief((SIDE, SIDE), (SIDE // 2, SIDE // 2))
     marks = Landmarks(belief)
