@@ -17,7 +17,7 @@
    when the cases that measure them were run.
 
 Before them, the machine's pace on the day (``gcs.machine_pace``): a fixed workload's
-time, printed and in the JSON, as shared machines drift by a factor of two.
+time, printed and in the JSON, as shared machines drift by a factor of three.
 
 Figures, never pass/fail on time: the machine is shared and noisy. The exit status
 is 1 only when a case did not finish, did not cover its map or lost a vehicle.

@@ -1,11 +1,11 @@
 """The machine's pace on the day: a fixed workload, timed before a benchmark.
 
-The machines we measure on are shared, and their speed drifts by a factor of two
-from one day to another: open 1000x1000 with 50 agents took 46.7 s on one day and
-151 s on another, with the same code and plan. A benchmark prints this figure
-beside its own, so that a reader can tell a slower machine from slower code:
-figures of two runs compare only at like paces (better still, side by side in
-one run).
+The machines we measure on are shared, and their speed drifts by a factor of three
+from one day to another: open 1000x1000 with 50 agents took 45.7 s on one day and
+151 s on another, with the same code and plan (this workload: 0.043 s and 0.142 s).
+A benchmark prints this figure beside its own, so that a reader can tell a slower
+machine from slower code: figures of two runs compare only at like paces (better
+still, side by side in one run).
 
 The workload is what most of a planner step is: pure Python over flat
 ``bytearray`` cells (a breadth-first search of a grid with walls), no compiled
@@ -18,7 +18,7 @@ import time
 from array import array
 from collections import deque
 
-#: The grid's side, in cells: a tenth to a fifth of a second on the machines we use.
+#: The grid's side, in cells: 0.04 to 0.15 s on the machines we use.
 SIDE = 400
 REPEATS = 3
 
