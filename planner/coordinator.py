@@ -293,7 +293,7 @@ class Coordinator:
             return False
         if witness is None or not belief.uncovered_mask[witness] or not self._in_range(witness):
             # An uncovered cell in range, kept while it stays one: most calls need no scan.
-            witness = self._witness = next((i for i in belief.uncovered if self._in_range(i)), None)
+            witness = self._witness = self._uncovered_in_range()
         if witness is not None and belief.charger_dist[witness] < UNREACHED:
             self._witness_key = (self._best_cost, belief.blocked_count)
         else:
@@ -303,6 +303,19 @@ class Coordinator:
             self._events.append(PlannerEvent(EventKind.COVERAGE_COMPLETE, -1))
         self._complete = complete
         return complete
+
+    def _uncovered_in_range(self) -> int | None:
+        """An uncovered cell that some agent can reach and come back from, or None.
+
+        Read from the packed list: a set emptied by covering keeps its table, and
+        iterating it reads every slot, which once coverage is complete happened
+        at every call (2 % of the time of open 1000x1000 with 50 agents)."""
+        belief = self.belief
+        listed = belief.uncovered_list
+        for k in range(belief.uncovered_count):
+            if self._in_range(listed[k]):
+                return listed[k]
+        return None
 
     @property
     def homeward(self) -> bool:
