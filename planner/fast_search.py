@@ -30,6 +30,7 @@ from planner.bounded_search import (
     rivals_listed,
     surely_affordable,
     target_rank,
+    way_at_least,
 )
 from planner.grid import CellState
 from planner.landmarks import HOME, Landmarks
@@ -257,6 +258,7 @@ def _path_search(
     goal: int,
     stride: int,
     bound: int,
+    lands: np.ndarray,
     seen: np.ndarray,
     stamp: int,
     parent: np.ndarray,
@@ -264,18 +266,19 @@ def _path_search(
 ) -> int:
     """Breadth-first from ``start`` until ``goal`` is reached (N, S, E, W order, as
     ``paths.nearest``), over the cells whose distance from the start plus
-    Manhattan distance to the goal is at most ``bound``: 1 when found
-    (``parent`` then holds the path), 0 when unreachable, else the smallest
-    bound that would let the search go further.
+    lower bound of the way to the goal (``way_at_least``: the Manhattan
+    distance, and the landmarks' ``lands``) is at most ``bound``: 1 when
+    found (``parent`` then holds the path), 0 when unreachable, else the
+    smallest bound that would let the search go further.
 
-    The Manhattan distance never drops by more than one a move, so every
-    shortest path to a kept cell runs over kept cells: the kept cells are
-    reached in the same order, from the same parents, as with no bound, and
-    the path found is the one the whole search finds.
+    Neither the Manhattan distance nor a distance from a landmark changes by
+    more than one a move, so every shortest path to a kept cell runs over
+    kept cells: the kept cells are reached in the same order, from the same
+    parents, as with no bound, and the path found is the one the whole
+    search finds. (A cell the landmarks do not reach is cut off from those
+    they do, by any way.)
     """
     steps = (-stride, stride, 1, -1)
-    goal_r = goal // stride
-    goal_c = goal % stride
     seen[start] = stamp
     queue[0] = start
     head = 0
@@ -293,7 +296,7 @@ def _path_search(
             v = u + steps[k]
             if state[v] != _FREE or seen[v] == stamp or blocked[v] != 0:
                 continue
-            reach = distance + 1 + abs(v // stride - goal_r) + abs(v % stride - goal_c)
+            reach = distance + 1 + way_at_least(v, goal, stride, lands)
             if reach > bound:
                 if reach < beyond:
                     beyond = reach
@@ -533,7 +536,7 @@ class TargetSearch:
         self.home = np.frombuffer(belief.charger_dist, dtype=np.int32)
         self.landmarks = Landmarks(belief)
         #: The distances from the landmarks (``Landmarks.lands``), brought up to
-        #: date at the start of each ``run``.
+        #: date at the start of each ``run`` and ``path``.
         self.lands = self.landmarks.lands
 
     def path(
@@ -544,10 +547,13 @@ class TargetSearch:
         if there is none, or none of at most ``longest`` moves."""
         if start == goal:
             return []
+        stride = self.belief.stride
+        self.lands = self.landmarks.update()
+        shortest = int(way_at_least(start, goal, stride, self.lands))
+        if longest is not None and longest < shortest:
+            return None  # (and a bound under 1 would read as found)
         marked = list(blocked)
         self._blocked[marked] = 1
-        stride = self.belief.stride
-        shortest = abs(start // stride - goal // stride) + abs(start % stride - goal % stride)
         bound, slack = (shortest, 1) if longest is None else (longest, 0)
         try:
             while True:
@@ -561,6 +567,7 @@ class TargetSearch:
                     goal,
                     stride,
                     bound,
+                    self.lands,
                     self.seen,
                     self.stamp,
                     self.parent,

@@ -11,11 +11,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gcs.simulate import simulate
-from planner import bounded_search, fast_search
+from planner import bounded_search, fast_search, landmarks
 from planner.belief import UNREACHED, MapBelief
 from planner.fast_search import HorizonMemo, TargetSearch, Team, WayMemo, _uncontested_horizon
 from planner.grid import CellState
-from planner.paths import bfs_distances
+from planner.paths import bfs_distances, shortest_path
 from sitl_mock import mapgen
 from tests.checks import make_mission
 
@@ -319,6 +319,7 @@ def test_a_way_still_shortest_has_none_shorter(seed: int, known: float, found: f
     known_at = belief.stamp
     for r, c in order[first : first + int(found * (len(order) - first))]:
         belief.mark_free(belief.index((int(r), int(c))))
+    search.lands = search.landmarks.update()  # as ``run`` does before it asks
     if search._still_shortest(start, goal, len(way), known_at):
         shortest = search.path(start, goal)
         assert shortest is not None and len(shortest) == len(way)
@@ -886,3 +887,46 @@ def test_plans_are_the_same_without_the_way_memo(monkeypatch, grid, agents: int)
     assert any(handed_out)
     monkeypatch.setattr(WayMemo, "listed", lambda self, *args: None)
     assert _tracks_digest(grid, agents) == with_memo
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    known=st.floats(0.2, 1.0),
+    agents=st.integers(0, 12),
+    spare=st.integers(-2, 6),
+)
+def test_paths_are_those_of_the_plain_search(
+    seed: int, known: float, agents: int, spare: int
+) -> None:
+    """Bounded by the landmarks (chosen on a partly known rooms map, then more
+    of it found), with other agents' cells not entered: the same path, cell for
+    cell, as the plain breadth-first search; with ``longest``, that path when
+    it is no longer, else none."""
+    rng = np.random.default_rng(seed)
+    grid = mapgen.rooms(SIDE, SIDE, seed % 1000)
+    belief = MapBelief((SIDE, SIDE), grid.charger)
+    search = TargetSearch(belief)
+    walls = grid.obstacle.copy()
+    walls[grid.charger] = False
+    reach = _true_distances(walls, grid.charger)
+    cells = np.argwhere(reach >= 0)  # found as a ragged wavefront from the charger
+    free = [belief.index((int(r), int(c))) for r, c in cells]
+    order = np.argsort(reach[reach >= 0] + rng.uniform(0, 8, len(cells)), kind="stable")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(landmarks, "DETOUR", 0.0)
+        for k in order[: len(free) // 3]:
+            belief.mark_free(free[k])
+        search.lands = search.landmarks.update()
+        for k in order[len(free) // 3 : int(known * len(free))]:
+            belief.mark_free(free[k])
+        reached = [i for i in free if belief.charger_dist[i] < UNREACHED]
+        start, goal = (int(reached[k]) for k in rng.integers(0, len(reached), 2))
+        blocked = {int(i) for i in rng.choice(reached, size=agents)} - {start, goal}
+        plain = shortest_path(belief, start, goal, blocked)
+        assert search.path(start, goal, blocked) == plain
+        if plain is not None:
+            longest = len(plain) + spare
+            expected = plain if spare >= 0 else None
+            assert search.path(start, goal, blocked, longest) == expected
+    assert len(search.landmarks.cells) > 1  # the landmarks did bound the searches
