@@ -551,7 +551,7 @@ class TargetSearch:
         self.lands = self.landmarks.update()
         shortest = int(way_at_least(start, goal, stride, self.lands))
         if longest is not None and longest < shortest:
-            return None  # (and a bound under 1 would read as found)
+            return None  # surely none (a bound under 1 would also read as found)
         marked = list(blocked)
         self._blocked[marked] = 1
         bound, slack = (shortest, 1) if longest is None else (longest, 0)
