@@ -703,6 +703,10 @@ class TargetSearch:
                 return rank, goal, way
             if len(found[2]) < moves:
                 return found
+            # As far as the goal: the rivals after it come later still, so only
+            # which of the two comes first is left to tell, by the ways to them alone.
+            self._rivals[0] = found[1]
+            count = 1
         self._rivals[count] = goal
         return self._first_among(
             start, self._rivals[: count + 1], moves, rank, hold, others, energy, way
