@@ -135,9 +135,7 @@ def _spread(state: np.ndarray, lands: np.ndarray, stride: int, queue: np.ndarray
     while chosen < lands.shape[1] - 1 and far >= 0:
         chosen += 1
         cells[chosen - 1] = far
-        dist[:, 0] = UNREACHED
-        dist[far, 0] = 0
-        _relax(state, dist, 0, far, stride, queue)
+        _fill(state, dist, 0, far, stride, queue)
         for v in range(size):
             d = dist[v, 0]
             lands[v, chosen] = d
