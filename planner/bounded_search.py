@@ -823,6 +823,16 @@ def none_between(
 
 
 @njit(cache=True, nogil=True)
+def all_beyond(cells: np.ndarray, start: int, reach: int, stride: int, lands: np.ndarray) -> bool:
+    """Is every one of ``cells`` more than ``reach`` moves from ``start``, by
+    ``way_at_least``?"""
+    for k in range(cells.size):  # noqa: SIM110 (a loop is what numba compiles best)
+        if way_within(start, cells[k], reach, stride, lands):
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
 def nearest_manhattan(rows: np.ndarray, cols: np.ndarray, r: int, c: int) -> int:
     """The Manhattan distance from ``(r, c)`` to the nearest of the cells (0 if none)."""
     if rows.size == 0:

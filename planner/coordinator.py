@@ -38,6 +38,7 @@ from planner.settings import (
     PlannerSettings,
     TargetPolicy,
 )
+from planner.settled_target import SettledTarget
 
 _FREE = int(CellState.FREE)
 _OBSTACLE = int(CellState.OBSTACLE)
@@ -142,6 +143,7 @@ class _Agent:
     slot: int
     memo: HorizonMemo
     way_memo: WayMemo = field(default_factory=WayMemo)
+    settled: SettledTarget = field(default_factory=SettledTarget)
     battery_pct: float = 100.0
     _mode: AgentMode = _EXPLORE
     path: deque[int] = field(default_factory=deque)  # remaining moves, next first
@@ -691,6 +693,7 @@ class Coordinator:
             a.memo if pool is None else None,
             hint if pool is None else None,
             a.way_memo if pool is None else None,
+            a.settled if pool is None else None,
         )
         if found is None:
             return None

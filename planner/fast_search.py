@@ -20,6 +20,7 @@ from planner.bounded_search import (
     AMONG_MARKS,
     JUMP_AFTER,
     JUMP_TRIES,
+    all_beyond,
     first_among,
     first_lesser,
     in_square,
@@ -34,6 +35,7 @@ from planner.bounded_search import (
 )
 from planner.grid import CellState
 from planner.landmarks import HOME, Landmarks
+from planner.settled_target import SettledTarget
 
 _FREE = int(CellState.FREE)
 #: What ``TargetSearch.run`` returns when, with a ``hold`` radius, every
@@ -534,6 +536,9 @@ class TargetSearch:
         self._pool_mask = np.zeros(size, dtype=np.uint8)
         self._blocked = np.zeros(size, dtype=np.uint8)
         self.home = np.frombuffer(belief.charger_dist, dtype=np.int32)
+        #: Set by ``_confirm`` when no other candidate the agent could take lay
+        #: within the way's length: any shortest way keeps the target (``SettledTarget``).
+        self._alone = False
         self.landmarks = Landmarks(belief)
         #: The distances from the landmarks (``Landmarks.lands``), brought up to
         #: date at the start of each ``run`` and ``path``.
@@ -691,6 +696,7 @@ class TargetSearch:
             return None  # too many to look at one by one: the search is as quick
         if self._still_shortest(start, goal, moves, known_at):
             if count == 0:
+                self._alone = True
                 return rank, goal, way
             # ``goal`` is as far as ``way``: only a rival nearer comes first, or one
             # as near whose way comes first in the search's order (left to the
@@ -700,6 +706,7 @@ class TargetSearch:
                 start, self._rivals[:count], moves, rank, hold, others, energy
             )
             if found is None:
+                self._alone = True
                 return rank, goal, way
             if len(found[2]) < moves:
                 return found
@@ -846,6 +853,7 @@ class TargetSearch:
         memo: HorizonMemo | None = None,
         hint: tuple[int, Sequence[int], tuple[int, int] | None] | None = None,
         way_memo: WayMemo | None = None,
+        settled: SettledTarget | None = None,
     ) -> tuple[int, int, Sequence[int]] | None:
         """The best target as ``(rank, cell, path)`` among ``pool`` (None: the
         uncovered cells), ranked against the ``others`` (rows, columns) agents;
@@ -857,8 +865,40 @@ class TargetSearch:
         ever (``pool`` None only): when it is certain what the search would
         return, it is returned without one, with a shortest path there
         (perhaps not the one the search finds: the way, when it is as short).
+        ``settled``: the agent's target as the last check proved it, carried
+        along the ``hint`` while nothing it rests on changed, and renewed by
+        each check (``pool`` None only).
         With ``hold`` > 0, rank 2 is always ``HELD_BACK``."""
         self.lands = self.landmarks.update()
+        energy = (battery, cost, floor, best_cost, budget)
+        if (
+            settled is not None
+            and hint is not None
+            and settled.goal == hint[0]
+            and pool is None
+            and self._carried(start, hint, energy, others, excluded, settled)
+        ):
+            return 0, hint[0], hint[1]
+        found = self._run(start, energy, others, hold, excluded, pool, memo, hint, way_memo)
+        if settled is not None and pool is None:
+            self._settle(settled, start, found, energy, others, excluded)
+        return found
+
+    def _run(
+        self,
+        start: int,
+        energy: tuple[float, float, float, float, float],
+        others: tuple[np.ndarray, np.ndarray],
+        hold: int,
+        excluded: list[int],
+        pool: Iterable[int] | None,
+        memo: HorizonMemo | None,
+        hint: tuple[int, Sequence[int], tuple[int, int] | None] | None,
+        way_memo: WayMemo | None,
+    ) -> tuple[int, int, Sequence[int]] | None:
+        """``run`` without the settled target."""
+        battery, cost, floor, best_cost, budget = energy
+        self._alone = False
         margin = -1
         if pool is None:
             mask = self.candidate
@@ -876,7 +916,6 @@ class TargetSearch:
         mask[claimed] = 0
         # The shortcuts read the uncovered cells' mask (``self.candidate``) with
         # the claimed cells masked out, as the search does.
-        energy = (battery, cost, floor, best_cost, budget)
         try:
             if hint is not None and pool is None:
                 goal, way, known_at = hint
@@ -931,6 +970,72 @@ class TargetSearch:
         if rank == HELD_BACK[0] and hold > 0:
             return HELD_BACK
         return rank, cell, self._way_to(start, cell, hint[1] if hint is not None else ())
+
+    def _carried(
+        self,
+        start: int,
+        hint: tuple[int, Sequence[int], tuple[int, int] | None],
+        energy: tuple[float, float, float, float, float],
+        others: tuple[np.ndarray, np.ndarray],
+        excluded: list[int],
+        settled: SettledTarget,
+    ) -> bool:
+        """Is the hint's target, by the hint's way, what the search would return,
+        as ``settled`` proves (see ``planner.settled_target``)? Carries it on if so."""
+        goal, way, _ = hint
+        battery, cost, floor = energy[0], energy[1], energy[2]
+        at = settled.step(start, goal, battery, cost)
+        if at < 0:
+            return False
+        moves = settled.cells.size - 1 - at
+        belief = self.belief
+        if (
+            len(way) != moves
+            or settled.stamp != belief.stamp
+            or settled.terms != energy[1:]
+            or not self.candidate[goal]
+            or goal in excluded
+            or battery - cost * (moves + int(self.home[goal])) < floor
+        ):
+            return False
+        if others[0].size:
+            return False  # ranked against others: settled only while nobody else works
+        if belief.added_count != settled.added:
+            new = np.frombuffer(belief.added, dtype=np.int64)[settled.added : belief.added_count]
+            if not all_beyond(new, start, moves, belief.stride, self.lands):
+                return False
+        claimed = settled.claimed
+        if claimed.size:
+            released = claimed[self.candidate[claimed] != 0]
+            if released.size and not np.isin(released, excluded).all():
+                return False
+        settled.carry(at, battery, belief)
+        return True
+
+    def _settle(
+        self,
+        settled: SettledTarget,
+        start: int,
+        found: tuple[int, int, Sequence[int]] | None,
+        energy: tuple[float, float, float, float, float],
+        others: tuple[np.ndarray, np.ndarray],
+        excluded: list[int],
+    ) -> None:
+        """Keep what the check just proved, when it can be carried: a target
+        found while no other agent works (none to contest a candidate)."""
+        if settled.goal >= 0:
+            settled.forget()
+        if found is None or found[0] != 0 or not found[2] or others[0].size:
+            return
+        path = found[2]
+        moves = len(path)
+        cells = np.empty(moves + 1, dtype=np.int64)
+        cells[0] = start
+        if self._alone:
+            cells[1:] = np.fromiter(path, dtype=np.int64, count=moves)
+        else:
+            cells[1:] = self._way[moves - 1 :: -1]  # the search's first way (``_way_to``)
+        settled.keep(cells, energy[0], energy[1:], self.belief, np.array(excluded, np.int64))
 
 
 def _warm_up() -> None:

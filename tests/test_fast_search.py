@@ -16,6 +16,7 @@ from planner.belief import UNREACHED, MapBelief
 from planner.fast_search import HorizonMemo, TargetSearch, Team, WayMemo, _uncontested_horizon
 from planner.grid import CellState
 from planner.paths import bfs_distances, shortest_path
+from planner.settled_target import SettledTarget
 from sitl_mock import mapgen
 from tests.checks import make_mission
 
@@ -268,6 +269,163 @@ def test_all_left_to_others_is_what_the_search_finds(seed: int, agents: int, hol
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(TargetSearch, "_all_left_to_others", lambda self, *a: (False, None))
         assert search.run(*args) == quick
+
+
+def _walls_opening(walls: np.ndarray, near: tuple[int, int], reach: int, sides: int) -> list:
+    """Walls within ``reach`` (Manhattan) of ``near`` with ``sides`` free neighbours
+    (1: a pocket, a new candidate but no shorter way; 2 or more: perhaps a shortcut)."""
+    free = np.pad(~walls, 1)
+    count = free[:-2, 1:-1].astype(int) + free[2:, 1:-1] + free[1:-1, :-2] + free[1:-1, 2:]
+    rows, cols = np.nonzero(walls & (count == sides if sides == 1 else count >= sides))
+    close = np.abs(rows - near[0]) + np.abs(cols - near[1]) <= reach
+    return [(int(r), int(c)) for r, c in zip(rows[close], cols[close], strict=True)]
+
+
+@settings(max_examples=400, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), steps=st.integers(1, 24), working=st.booleans())
+def test_a_settled_target_is_what_the_search_returns(seed: int, steps: int, working: bool) -> None:
+    """An agent walks a shortest way to the target its check found (the
+    search's, or another as long), step by step, sometimes waiting, while cells
+    are covered, found (pockets near it, ways shorter near it or anywhere),
+    claimed and released, its battery drains by each move, sags or reads
+    higher, its consumption is estimated anew, it takes a detour, and another
+    agent may start working: at every step, what the
+    search returns with the target carried along (``SettledTarget``) is what
+    the plain search returns, at the same rank, by a way as long, the way or
+    the search's."""
+    rng = np.random.default_rng(seed)
+    belief, walls = _swept_map(rng, seed, rng.uniform(0.95, 0.995))  # far targets, long ways
+    search = TargetSearch(belief)
+    settled = SettledTarget()
+    cost = float(rng.choice([0.0, 1.0, 1.0, 2.0]))
+    battery = float(rng.uniform(40.0, 100.0))
+    free = [i for i in belief.uncovered if belief.charger_dist[i] < UNREACHED]
+    if len(free) < 2:
+        return
+    start = int(rng.choice(free))
+    belief.cover(belief.cell(start), 1)  # where an agent stands is covered
+    claims = [int(i) for i in rng.choice(free, size=3)]
+    nobody = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+    other = (np.array([free[0] // belief.stride - 1]), np.array([free[0] % belief.stride - 1]))
+
+    def ask(hint, others=nobody):
+        args = (start, battery, cost, 20.0, cost, 80.0, others, 5, claims, None, None)
+        return search.run(*args, hint, None, settled), search.run(*args)
+
+    found, _ = ask(None)
+    if found is None:
+        return
+    goal, way = found[1], list(found[2])
+    if rng.random() < 0.5 and len(way) > 1:  # another way as short, round the search's next cell
+        aside = search.path(start, goal, [way[0]])
+        if aside is not None and len(aside) == len(way):
+            way = aside
+            ask((goal, list(way), belief.stamp))
+    known_at = belief.stamp
+    for _ in range(steps):
+        if len(way) < 2:
+            return
+        event = int(rng.integers(0, 12))
+        if event != 0:  # else it waits
+            start = way.pop(0)
+            belief.cover(belief.cell(start), 1)
+            battery -= cost
+        here = belief.cell(start)
+        if event == 1:
+            battery += float(rng.choice([-5.0, 2.0]))  # a sag, or a reading higher
+        elif event == 2:
+            for i in rng.choice(list(belief.uncovered), size=5):
+                if i != goal:
+                    belief.cover(belief.cell(int(i)), 1)
+        elif event in (3, 4):  # a wall seen wrong: a pocket, or perhaps a shorter way
+            near = rng.random() < 0.7
+            picks = _walls_opening(walls, here, len(way) if near else 2 * SIDE, event - 2)
+            for k in rng.permutation(len(picks))[: int(rng.integers(1, 4))]:
+                walls[picks[k]] = False
+                belief.mark_free(belief.index(picks[k]))
+                if event == 4 and rng.random() < 0.5:  # swept at once: only a way
+                    belief.cover(picks[k], 1)
+        elif event == 5 and claims:
+            claims.pop()  # a claim released
+        elif event == 6:
+            claims.append(int(rng.choice(list(belief.uncovered))))
+        elif event == 8:
+            cost /= 2  # a better estimate of the agent's consumption
+        elif event == 9:  # a detour round an agent in the way, longer
+            detour = search.path(start, goal, [way[0]])
+            if detour is not None:
+                way, known_at = detour, None
+        others = other if working and event == 7 else nobody
+        carried, searched = ask((goal, list(way), known_at), others)
+        assert (carried is None) == (searched is None)
+        if carried is None:
+            return
+        assert carried[:2] == searched[:2]
+        assert len(carried[2]) == len(searched[2])
+        assert list(carried[2]) in (list(searched[2]), way)
+        if carried[1] != goal or len(carried[2]) < len(way):
+            goal, way = carried[1], list(carried[2])
+        known_at = belief.stamp
+
+
+def _belief_of(free: list[tuple[int, int]], uncovered: list[tuple[int, int]]) -> MapBelief:
+    """A 7x7 map known to be these free cells, all covered but ``uncovered``."""
+    belief = MapBelief((7, 7), (0, 0))
+    for cell in free:
+        belief.mark_free(belief.index(cell))
+    for cell in free:
+        if cell not in uncovered:
+            belief.cover(cell, 1)
+    return belief
+
+
+_NOBODY = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+
+
+def test_a_target_is_carried_only_along_the_searchs_first_way() -> None:
+    """From (3, 3) the search reaches (4, 4) by S, E before (2, 4) (N is a wall):
+    the target. On a way as short that steps E first, (2, 4) is the first
+    reached from there: the target is not carried along that way."""
+    free = [(r, c) for r in range(7) for c in range(7) if (r, c) != (2, 3)]
+    belief = _belief_of(free, [(4, 4), (2, 4)])
+    search, settled = TargetSearch(belief), SettledTarget()
+    start, goal, rival, aside = (belief.index(c) for c in ((3, 3), (4, 4), (2, 4), (3, 4)))
+    args = (100.0, 0.0, 20.0, 0.0, 80.0, _NOBODY, 5, [])
+    assert search.run(start, *args)[1] == goal
+    # On the way aside (a detour, say), the check keeps it, as short as the search's.
+    kept = search.run(start, *args, None, None, (goal, [aside, goal], belief.stamp), None, settled)
+    assert kept == (0, goal, [aside, goal])
+    found = search.run(aside, *args, None, None, (goal, [goal], belief.stamp), None, settled)
+    assert found == search.run(aside, *args) == (0, rival, [rival])
+
+
+@pytest.mark.parametrize("change", ["a shorter way home", "a higher reading"])
+def test_a_target_is_not_carried_once_a_nearer_one_is_affordable(change: str) -> None:
+    """From (2, 6), (0, 5) and (5, 6) are three moves away, (0, 5) first; but
+    its way home round the map is too long for the battery, so (5, 6) is the
+    target. The agent waits; then the wall between (0, 5) and the charger turns
+    out open (far from the agent: a shorter way home, no nearer candidate), or
+    the battery reads higher: (0, 5) is affordable and the target."""
+    ring = [(r, 0) for r in range(7)] + [(6, c) for c in range(1, 7)]
+    free = ring + [(r, 6) for r in range(6)] + [(0, 4), (0, 5)]
+    belief = _belief_of(free, [(0, 5), (5, 6)])
+    search, settled = TargetSearch(belief), SettledTarget()
+    start, goal, nearer = (belief.index(c) for c in ((2, 6), (5, 6), (0, 5)))
+    battery = 40.0
+    found = search.run(
+        start, battery, 1.0, 20.0, 1.0, 80.0, _NOBODY, 5, [], None, None, None, None, settled
+    )
+    assert found is not None and found[1] == goal
+    known_at = belief.stamp
+    if change == "a higher reading":
+        battery += 4.0
+    else:
+        for cell in ((0, 1), (0, 2), (0, 3)):
+            belief.mark_free(belief.index(cell))
+    args = (start, battery, 1.0, 20.0, 1.0, 80.0, _NOBODY, 5, [], None, None)
+    carried = search.run(*args, (goal, list(found[2]), known_at), None, settled)
+    assert carried == search.run(*args)
+    assert carried is not None and carried[1] == nearer
 
 
 def _true_distances(walls: np.ndarray, source: tuple[int, int]) -> np.ndarray:
@@ -785,7 +943,8 @@ def test_plans_are_the_same_without_the_shortlist(monkeypatch, grid, agents: int
 )
 def test_plans_are_the_same_without_confirmations(monkeypatch, grid, agents: int) -> None:
     """Skipping the searches that would return the target on the way changes no
-    move, and it does skip searches."""
+    move, and it does skip searches (alone: a settled target spares them too)."""
+    monkeypatch.setattr(TargetSearch, "_carried", lambda self, *args: False)
     searches = []
     search = fast_search._search
 
@@ -874,19 +1033,38 @@ def test_way_memo_holds_every_candidate_in_reach(
 def test_plans_are_the_same_without_the_way_memo(monkeypatch, grid, agents: int) -> None:
     """The transit's check passing over the cells kept along its way changes no move,
     and it does pass over them."""
-    handed_out = []
-    listed = WayMemo.listed
+    _same_plans_without(
+        monkeypatch, grid, agents, WayMemo, "listed", lambda pool: pool is not None, None
+    )
+
+
+def _same_plans_without(monkeypatch, grid, agents: int, owner, name: str, used, off) -> None:
+    """The plan with ``owner.name`` as it is and with it always returning ``off``
+    is the same, and ``used`` tells that it did return something else."""
+    results = []
+    real = getattr(owner, name)
 
     def counted(self, *args):
-        pool = listed(self, *args)
-        handed_out.append(pool is not None)
-        return pool
+        result = real(self, *args)
+        results.append(used(result))
+        return result
 
-    monkeypatch.setattr(WayMemo, "listed", counted)
-    with_memo = _tracks_digest(grid, agents)
-    assert any(handed_out)
-    monkeypatch.setattr(WayMemo, "listed", lambda self, *args: None)
-    assert _tracks_digest(grid, agents) == with_memo
+    monkeypatch.setattr(owner, name, counted)
+    with_it = _tracks_digest(grid, agents)
+    assert any(results)
+    monkeypatch.setattr(owner, name, lambda self, *args: off)
+    assert _tracks_digest(grid, agents) == with_it
+
+
+@pytest.mark.parametrize(
+    ("grid", "agents"),
+    [(mapgen.rooms(60, 60, 5), 1), (mapgen.open_field(80, 80, 3), 1), (mapgen.rooms(60, 60, 5), 3)],
+    ids=["rooms60-1", "open80-1", "rooms60-3"],
+)
+def test_plans_are_the_same_without_the_settled_target(monkeypatch, grid, agents: int) -> None:
+    """Carrying a target along its way without a check changes no move, and it
+    does spare checks."""
+    _same_plans_without(monkeypatch, grid, agents, TargetSearch, "_carried", bool, False)
 
 
 @settings(max_examples=100, deadline=None)
