@@ -871,17 +871,19 @@ class TargetSearch:
         With ``hold`` > 0, rank 2 is always ``HELD_BACK``."""
         self.lands = self.landmarks.update()
         energy = (battery, cost, floor, best_cost, budget)
+        if settled is None or pool is not None or others[0].size:
+            # Ranked against others: nothing is settled (``_carried`` would refuse it).
+            if settled is not None and settled.goal >= 0:
+                settled.forget()
+            return self._run(start, energy, others, hold, excluded, pool, memo, hint, way_memo)
         if (
-            settled is not None
-            and hint is not None
+            hint is not None
             and settled.goal == hint[0]
-            and pool is None
-            and self._carried(start, hint, energy, others, excluded, settled)
+            and self._carried(start, hint, energy, excluded, settled)
         ):
             return 0, hint[0], hint[1]
         found = self._run(start, energy, others, hold, excluded, pool, memo, hint, way_memo)
-        if settled is not None and pool is None:
-            self._settle(settled, start, found, energy, others, excluded)
+        self._settle(settled, start, found, energy, excluded)
         return found
 
     def _run(
@@ -976,7 +978,6 @@ class TargetSearch:
         start: int,
         hint: tuple[int, Sequence[int], tuple[int, int] | None],
         energy: tuple[float, float, float, float, float],
-        others: tuple[np.ndarray, np.ndarray],
         excluded: list[int],
         settled: SettledTarget,
     ) -> bool:
@@ -998,8 +999,6 @@ class TargetSearch:
             or battery - cost * (moves + int(self.home[goal])) < floor
         ):
             return False
-        if others[0].size:
-            return False  # ranked against others: settled only while nobody else works
         if belief.added_count != settled.added:
             new = np.frombuffer(belief.added, dtype=np.int64)[settled.added : belief.added_count]
             if not all_beyond(new, start, moves, belief.stride, self.lands):
@@ -1018,14 +1017,12 @@ class TargetSearch:
         start: int,
         found: tuple[int, int, Sequence[int]] | None,
         energy: tuple[float, float, float, float, float],
-        others: tuple[np.ndarray, np.ndarray],
         excluded: list[int],
     ) -> None:
-        """Keep what the check just proved, when it can be carried: a target
-        found while no other agent works (none to contest a candidate)."""
+        """Keep what the check just proved (while no other agent works)."""
         if settled.goal >= 0:
             settled.forget()
-        if found is None or found[0] != 0 or not found[2] or others[0].size:
+        if found is None or found[0] != 0 or not found[2]:
             return
         path = found[2]
         moves = len(path)
