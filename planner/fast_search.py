@@ -35,7 +35,7 @@ from planner.bounded_search import (
 )
 from planner.grid import CellState
 from planner.landmarks import HOME, Landmarks
-from planner.settled_target import SettledTarget
+from planner.settled_target import SettledTarget, SettledTie
 
 _FREE = int(CellState.FREE)
 #: What ``TargetSearch.run`` returns when, with a ``hold`` radius, every
@@ -455,6 +455,8 @@ class WayMemo:
         #: The cells kept, in the first ``_kept`` items, and room behind them.
         self._cells = np.zeros(64, dtype=np.int64)
         self._kept = 0
+        #: A tie the last check settled on the way (``SettledTie``).
+        self.tie = SettledTie()
 
     def listed(
         self, start: int, goal: int, moves: int, belief: MapBelief, most: int
@@ -712,12 +714,46 @@ class TargetSearch:
                 return found
             # As far as the goal: the rivals after it come later still, so only
             # which of the two comes first is left to tell, by the ways to them alone.
-            self._rivals[0] = found[1]
-            count = 1
+            rival = found[1]
+            tie = None if way_memo is None else way_memo.tie
+            if tie is not None and self._tie_holds(start, goal, rival, moves, tie):
+                return rank, goal, way
+            self._rivals[:2] = rival, goal
+            pair = self._rivals[:2]
+            found = self._first_among(start, pair, moves, rank, hold, others, energy, way)
+            if tie is not None:
+                if found is not None and found[1] == goal:
+                    tie.keep(self._first_way(start, moves), rival, self.belief)
+                else:
+                    tie.forget()
+            return found
         self._rivals[count] = goal
         return self._first_among(
             start, self._rivals[: count + 1], moves, rank, hold, others, energy, way
         )
+
+    def _first_way(self, start: int, moves: int) -> np.ndarray:
+        """The start, then the search's first way that ``_way_to`` just unwound."""
+        cells = np.empty(moves + 1, dtype=np.int64)
+        cells[0] = start
+        cells[1:] = self._way[moves - 1 :: -1]
+        return cells
+
+    def _tie_holds(self, start: int, goal: int, rival: int, moves: int, tie: SettledTie) -> bool:
+        """Does ``goal`` still come before ``rival``, as far, as ``tie`` proves (see
+        ``planner.settled_target``)? Carries it on if so."""
+        if tie.rival != rival:
+            return False
+        at = tie.where(start, goal)
+        belief = self.belief
+        if at < 0 or tie.cells.size - 1 - at != moves or tie.blocked != belief.blocked_count:
+            return False
+        if belief.added_count != tie.added:
+            new = np.frombuffer(belief.added, dtype=np.int64)[tie.added : belief.added_count]
+            if not all_beyond(new, start, moves, belief.stride, self.lands):
+                return False
+        tie.carry(at, belief)
+        return True
 
     def _first_among(
         self,
@@ -1008,7 +1044,7 @@ class TargetSearch:
             released = claimed[self.candidate[claimed] != 0]
             if released.size and not np.isin(released, excluded).all():
                 return False
-        settled.carry(at, battery, belief)
+        settled.carry_on(at, battery, belief)
         return True
 
     def _settle(
@@ -1026,12 +1062,12 @@ class TargetSearch:
             return
         path = found[2]
         moves = len(path)
-        cells = np.empty(moves + 1, dtype=np.int64)
-        cells[0] = start
         if self._alone:
+            cells = np.empty(moves + 1, dtype=np.int64)
+            cells[0] = start
             cells[1:] = np.fromiter(path, dtype=np.int64, count=moves)
         else:
-            cells[1:] = self._way[moves - 1 :: -1]  # the search's first way (``_way_to``)
+            cells = self._first_way(start, moves)
         settled.keep(cells, energy[0], energy[1:], self.belief, np.array(excluded, np.int64))
 
 

@@ -34,6 +34,15 @@ last one out):
 - the move costs and the range are as they were, and the battery fell by at
   least a move's cost for each move: a candidate the agent could not afford
   then it cannot afford now.
+
+The second point holds for two cells alone, whatever the ranks: when the
+search reaches ``g`` before a rival ``r`` as far, then from the next cell of
+``g``'s first way, with ``r`` still as far as ``g``, it reaches ``g`` first
+again, so long as the ways within their distance are as they were (no cell
+blocked, none found since within the way's length). A transit check with
+other agents at work that finds such a rival (``TargetSearch._confirm``)
+needs no second search to tell the two apart while that holds
+(``SettledTie``).
 """
 
 from __future__ import annotations
@@ -43,20 +52,50 @@ import numpy as np
 from planner.belief import MapBelief
 
 
-class SettledTarget:
+class OnFirstWay:
+    """Where an agent is on the search's first way to a cell, from one decision
+    to the next."""
+
+    def __init__(self) -> None:
+        #: The agent's cell when it was kept, then the way, the cell at its end last.
+        self.cells = np.zeros(0, dtype=np.int64)
+        self.goal = -1  # the cell at its end; -1: none kept
+        #: Where the agent stood at its last decision (an index into ``cells``).
+        self.at = 0
+        self.added = 0  # ``MapBelief.added_count`` at that decision
+
+    def keep_way(self, cells: np.ndarray, belief: MapBelief) -> None:
+        self.cells, self.goal, self.at, self.added = cells, int(cells[-1]), 0, belief.added_count
+
+    def forget(self) -> None:
+        self.goal = -1
+
+    def where(self, start: int, goal: int) -> int:
+        """The index into ``cells`` of ``start``, when the agent stands where it
+        stood at its last decision or one cell on, heading for ``goal``; else -1."""
+        cells, at = self.cells, self.at
+        if goal != self.goal:
+            return -1
+        if cells[at] == start:
+            return at
+        if at + 1 < cells.size and cells[at + 1] == start:
+            return at + 1
+        return -1
+
+    def carry(self, at: int, belief: MapBelief) -> None:
+        """The agent is at ``cells[at]`` and what was kept still holds."""
+        self.at, self.added = at, belief.added_count
+
+
+class SettledTarget(OnFirstWay):
     """One agent's target proved by the last full check, and where the agent is
     on the way there. Kept and read by ``TargetSearch``."""
 
     def __init__(self) -> None:
-        #: The agent's cell at the check, then the way, the target last.
-        self.cells = np.zeros(0, dtype=np.int64)
-        self.goal = -1  # the target; -1: none kept
-        #: Where the agent stood at its last decision (an index into ``cells``).
-        self.at = 0
+        super().__init__()
         self.battery = 0.0
         #: The move cost, reserve floor, best move cost and range budget of the check.
         self.terms: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
-        self.added = 0  # ``MapBelief.added_count`` when last carried
         self.stamp: tuple[int, int] = (0, 0)  # ``MapBelief.stamp`` of the check
         self.claimed = np.zeros(0, dtype=np.int64)
 
@@ -68,30 +107,30 @@ class SettledTarget:
         belief: MapBelief,
         claimed: np.ndarray,
     ) -> None:
-        self.cells, self.goal, self.at = cells, int(cells[-1]), 0
-        self.battery, self.terms = battery, terms
-        self.added, self.stamp, self.claimed = belief.added_count, belief.stamp, claimed
-
-    def forget(self) -> None:
-        self.goal = -1
+        self.keep_way(cells, belief)
+        self.battery, self.terms, self.stamp, self.claimed = battery, terms, belief.stamp, claimed
 
     def step(self, start: int, goal: int, battery: float, cost: float) -> int:
-        """How far the agent is along the kept way, when it stands where it stood
-        at its last decision or one cell on, with the battery it should have:
-        the index into ``cells``; -1 when it is not on it that way."""
-        cells, at = self.cells, self.at
-        if goal != self.goal:
-            return -1
-        if cells[at] == start:
-            spent = 0.0
-        elif at + 1 < cells.size and cells[at + 1] == start:
-            at, spent = at + 1, cost
-        else:
-            return -1
-        if battery > self.battery - spent:
+        """``where``, when the battery fell by a move's cost for each move since."""
+        at = self.where(start, goal)
+        if at < 0 or battery > self.battery - (cost if at > self.at else 0.0):
             return -1
         return at
 
-    def carry(self, at: int, battery: float, belief: MapBelief) -> None:
-        """The agent is at ``cells[at]`` and the target still settled."""
-        self.at, self.battery, self.added = at, battery, belief.added_count
+    def carry_on(self, at: int, battery: float, belief: MapBelief) -> None:
+        self.carry(at, belief)
+        self.battery = battery
+
+
+class SettledTie(OnFirstWay):
+    """A rival that the search reaches as far as the target but after it, for an
+    agent on the target's first way. Kept and read by ``TargetSearch._confirm``."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.rival = -1
+        self.blocked = 0  # ``MapBelief.blocked_count`` when kept
+
+    def keep(self, cells: np.ndarray, rival: int, belief: MapBelief) -> None:
+        self.keep_way(cells, belief)
+        self.rival, self.blocked = rival, belief.blocked_count

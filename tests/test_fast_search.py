@@ -281,22 +281,29 @@ def _walls_opening(walls: np.ndarray, near: tuple[int, int], reach: int, sides: 
     return [(int(r), int(c)) for r, c in zip(rows[close], cols[close], strict=True)]
 
 
-@settings(max_examples=400, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), steps=st.integers(1, 24), working=st.booleans())
-def test_a_settled_target_is_what_the_search_returns(seed: int, steps: int, working: bool) -> None:
+@settings(max_examples=500, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    steps=st.integers(1, 24),
+    working=st.booleans(),
+    crowd=st.sampled_from([0, 0, 2, 6]),
+)
+def test_a_settled_target_is_what_the_search_returns(
+    seed: int, steps: int, working: bool, crowd: int
+) -> None:
     """An agent walks a shortest way to the target its check found (the
     search's, or another as long), step by step, sometimes waiting, while cells
     are covered, found (pockets near it, ways shorter near it or anywhere),
-    claimed and released, its battery drains by each move, sags or reads
-    higher, its consumption is estimated anew, it takes a detour, and another
-    agent may start working: at every step, what the
-    search returns with the target carried along (``SettledTarget``) is what
-    the plain search returns, at the same rank, by a way as long, the way or
-    the search's."""
+    blocked, claimed and released, its battery drains by each move, sags or
+    reads higher, its consumption is estimated anew, it takes a detour, and
+    another agent may start working, or a crowd walks about: at every step,
+    what the search returns with the target carried along (``SettledTarget``)
+    and the ties it settled kept (``WayMemo.tie``) is what the plain search
+    returns, at the same rank, by a way as long, the way or the search's."""
     rng = np.random.default_rng(seed)
     belief, walls = _swept_map(rng, seed, rng.uniform(0.95, 0.995))  # far targets, long ways
     search = TargetSearch(belief)
-    settled = SettledTarget()
+    settled, way_memo = SettledTarget(), WayMemo()
     cost = float(rng.choice([0.0, 1.0, 1.0, 2.0]))
     battery = float(rng.uniform(40.0, 100.0))
     free = [i for i in belief.uncovered if belief.charger_dist[i] < UNREACHED]
@@ -307,10 +314,11 @@ def test_a_settled_target_is_what_the_search_returns(seed: int, steps: int, work
     claims = [int(i) for i in rng.choice(free, size=3)]
     nobody = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
     other = (np.array([free[0] // belief.stride - 1]), np.array([free[0] % belief.stride - 1]))
+    team = np.argwhere(~walls)[rng.integers(0, int((~walls).sum()), crowd)]
 
     def ask(hint, others=nobody):
         args = (start, battery, cost, 20.0, cost, 80.0, others, 5, claims, None, None)
-        return search.run(*args, hint, None, settled), search.run(*args)
+        return search.run(*args, hint, way_memo, settled), search.run(*args)
 
     found, _ = ask(None)
     if found is None:
@@ -325,7 +333,7 @@ def test_a_settled_target_is_what_the_search_returns(seed: int, steps: int, work
     for _ in range(steps):
         if len(way) < 2:
             return
-        event = int(rng.integers(0, 12))
+        event = int(rng.integers(0, 13))
         if event != 0:  # else it waits
             start = way.pop(0)
             belief.cover(belief.cell(start), 1)
@@ -355,7 +363,14 @@ def test_a_settled_target_is_what_the_search_returns(seed: int, steps: int, work
             detour = search.path(start, goal, [way[0]])
             if detour is not None:
                 way, known_at = detour, None
+        elif event == 10:  # a vehicle lost: where it stands, nobody passes
+            i = int(rng.choice(list(belief.uncovered)))
+            if i not in (goal, *way):
+                belief.block(i)
         others = other if working and event == 7 else nobody
+        if crowd:
+            team = np.clip(team + rng.integers(-1, 2, team.shape), 0, SIDE - 1)
+            others = (team[:, 0].astype(np.int64), team[:, 1].astype(np.int64))
         carried, searched = ask((goal, list(way), known_at), others)
         assert (carried is None) == (searched is None)
         if carried is None:
@@ -365,6 +380,83 @@ def test_a_settled_target_is_what_the_search_returns(seed: int, steps: int, work
         assert list(carried[2]) in (list(searched[2]), way)
         if carried[1] != goal or len(carried[2]) < len(way):
             goal, way = carried[1], list(carried[2])
+        known_at = belief.stamp
+
+
+@settings(max_examples=300, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), steps=st.integers(1, 30), crowd=st.integers(1, 6))
+def test_a_settled_tie_is_what_the_search_returns(seed: int, steps: int, crowd: int) -> None:
+    """On open ground with candidates in mirrored pairs (as far from the agent,
+    so ties are many), an agent with others at work walks the search's first
+    way to its target, sometimes waiting, while cells are found (near or far),
+    blocked and covered and the others walk about: at every step the check,
+    with the ties it settled kept (``WayMemo.tie``), returns what the plain
+    search returns."""
+    rng = np.random.default_rng(seed)
+    walls = rng.random((SIDE, SIDE)) < rng.uniform(0.0, 0.12)
+    walls[0, 0] = False
+    belief = MapBelief((SIDE, SIDE), (0, 0))
+    for r, c in zip(*np.nonzero(~walls), strict=True):
+        belief.mark_free(belief.index((int(r), int(c))))
+    here = (int(rng.integers(5, SIDE - 5)), int(rng.integers(5, SIDE - 5)))
+    keep = set()
+    for _ in range(int(rng.integers(2, 12))):
+        r, c = (int(x) for x in rng.integers(0, SIDE, 2))
+        keep |= {(r, c), (2 * here[0] - r, c), (r, 2 * here[1] - c)}
+    for i in list(belief.uncovered):
+        if belief.cell(i) not in keep:
+            belief.cover(belief.cell(i), 1)
+    search, way_memo = TargetSearch(belief), WayMemo()
+    start = belief.index(here)
+    if belief.state[start] != CellState.FREE:
+        return
+    belief.cover(here, 1)
+    team = np.argwhere(~walls)[rng.integers(0, int((~walls).sum()), crowd)]
+
+    def ask(hint):
+        others = (team[:, 0].astype(np.int64), team[:, 1].astype(np.int64))
+        args = (start, 100.0, 0.5, 20.0, 0.5, 80.0, others, 5, [], None, None)
+        return search.run(*args, hint, way_memo), search.run(*args)
+
+    found, _ = ask(None)
+    if found is None or found[0] != 0:
+        return
+    goal, way, known_at = found[1], list(found[2]), belief.stamp
+    for _ in range(steps):
+        if len(way) < 2:
+            return
+        event = int(rng.integers(0, 6))
+        if event != 0:
+            start = way.pop(0)
+            belief.cover(belief.cell(start), 1)
+        at = belief.cell(start)
+        if event == 2:  # a cell found free, near or anywhere
+            near = _walls_opening(walls, at, len(way), 1) + _walls_opening(walls, at, len(way), 2)
+            picks = near if near and rng.random() < 0.7 else _walls_opening(walls, at, SIDE, 1)
+            if picks:
+                cell = picks[int(rng.integers(0, len(picks)))]
+                walls[cell] = False
+                belief.mark_free(belief.index(cell))
+        elif event == 3:  # blocked: a vehicle lost there
+            i = int(rng.choice(np.flatnonzero(~walls.ravel())))
+            cell = (i // SIDE, i % SIDE)
+            if belief.index(cell) not in (goal, start, *way):
+                walls[cell] = True
+                belief.block(belief.index(cell))
+        elif event == 4 and len(belief.uncovered) > 1:
+            i = int(rng.choice([i for i in belief.uncovered if i != goal]))
+            belief.cover(belief.cell(i), 1)
+        team = np.clip(team + rng.integers(-1, 2, team.shape), 0, SIDE - 1)
+        checked, searched = ask((goal, list(way), known_at))
+        assert (checked is None) == (searched is None)
+        if checked is None:
+            return
+        assert checked[:2] == searched[:2]
+        assert len(checked[2]) == len(searched[2])
+        if checked[0] != 0:
+            return
+        if checked[1] != goal or len(checked[2]) < len(way):
+            goal, way = checked[1], list(checked[2])
         known_at = belief.stamp
 
 
@@ -382,21 +474,56 @@ def _belief_of(free: list[tuple[int, int]], uncovered: list[tuple[int, int]]) ->
 _NOBODY = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
 
 
-def test_a_target_is_carried_only_along_the_searchs_first_way() -> None:
+@pytest.mark.parametrize("others", ["none", "far"])
+def test_a_target_is_carried_only_along_the_searchs_first_way(others: str) -> None:
     """From (3, 3) the search reaches (4, 4) by S, E before (2, 4) (N is a wall):
     the target. On a way as short that steps E first, (2, 4) is the first
-    reached from there: the target is not carried along that way."""
+    reached from there: neither the target (no other agent at work) nor the
+    tie between the two (another at work, too far to contest either) is
+    carried along that way."""
     free = [(r, c) for r in range(7) for c in range(7) if (r, c) != (2, 3)]
     belief = _belief_of(free, [(4, 4), (2, 4)])
-    search, settled = TargetSearch(belief), SettledTarget()
+    search, settled, way_memo = TargetSearch(belief), SettledTarget(), WayMemo()
     start, goal, rival, aside = (belief.index(c) for c in ((3, 3), (4, 4), (2, 4), (3, 4)))
-    args = (100.0, 0.0, 20.0, 0.0, 80.0, _NOBODY, 5, [])
+    team = _NOBODY if others == "none" else (np.array([6]), np.array([0]))
+    args = (100.0, 0.0, 20.0, 0.0, 80.0, team, 5, [])
     assert search.run(start, *args)[1] == goal
     # On the way aside (a detour, say), the check keeps it, as short as the search's.
-    kept = search.run(start, *args, None, None, (goal, [aside, goal], belief.stamp), None, settled)
-    assert kept == (0, goal, [aside, goal])
-    found = search.run(aside, *args, None, None, (goal, [goal], belief.stamp), None, settled)
+    hint = (goal, [aside, goal], belief.stamp)
+    assert search.run(start, *args, None, None, hint, way_memo, settled) == (0, goal, [aside, goal])
+    assert way_memo.tie.goal == goal and settled.goal == (goal if others == "none" else -1)
+    found = search.run(aside, *args, None, None, (goal, [goal], belief.stamp), way_memo, settled)
     assert found == search.run(aside, *args) == (0, rival, [rival])
+
+
+@pytest.mark.parametrize("change", ["the wall is found open", "the rival nearer is left"])
+def test_a_tie_is_not_kept_once_a_rival_comes_first(change: str) -> None:
+    """From (3, 3), with N a wall, the search reaches (4, 4) by S, E before
+    (2, 4) by E, N; (5, 3), first of all by S, S, is left to the agent at
+    (6, 3). The agent waits. Then the wall turns out open ((2, 4) by N, E
+    comes first), or the agent at (6, 3) moves off ((5, 3) comes first): the
+    tie kept is not what the check returns."""
+    free = [(r, c) for r in range(7) for c in range(7) if (r, c) != (2, 3)]
+    belief = _belief_of(free, [(4, 4), (2, 4), (5, 3)])
+    search, way_memo = TargetSearch(belief), WayMemo()
+    start, goal = belief.index((3, 3)), belief.index((4, 4))
+    energy = (100.0, 0.0, 20.0, 0.0, 80.0)
+    beside = (np.array([6]), np.array([3]))
+    found = search.run(start, *energy, beside, 5, [])
+    assert found is not None and found[1] == goal
+    hint = (goal, list(found[2]), belief.stamp)
+    assert search.run(start, *energy, beside, 5, [], None, None, hint, way_memo) == found
+    assert way_memo.tie.goal == goal and way_memo.tie.rival == belief.index((2, 4))
+    team, first = beside, (2, 4)
+    if change == "the wall is found open":
+        belief.mark_free(belief.index((2, 3)))
+        belief.cover((2, 3), 1)
+    else:
+        team, first = (np.array([6]), np.array([0])), (5, 3)
+    args = (start, *energy, team, 5, [], None, None)
+    checked = search.run(*args, hint, way_memo)
+    assert checked == search.run(*args)
+    assert checked is not None and checked[1] == belief.index(first)
 
 
 @pytest.mark.parametrize("change", ["a shorter way home", "a higher reading"])
