@@ -20,7 +20,6 @@ from planner.bounded_search import (
     AMONG_MARKS,
     JUMP_AFTER,
     JUMP_TRIES,
-    all_beyond,
     first_among,
     first_lesser,
     in_square,
@@ -746,12 +745,13 @@ class TargetSearch:
             return False
         at = tie.where(start, goal)
         belief = self.belief
-        if at < 0 or tie.cells.size - 1 - at != moves or tie.blocked != belief.blocked_count:
+        if (
+            at < 0
+            or tie.cells.size - 1 - at != moves
+            or tie.blocked != belief.blocked_count
+            or not tie.none_found_within(belief, start, moves, self.lands)
+        ):
             return False
-        if belief.added_count != tie.added:
-            new = np.frombuffer(belief.added, dtype=np.int64)[tie.added : belief.added_count]
-            if not all_beyond(new, start, moves, belief.stride, self.lands):
-                return False
         tie.carry(at, belief)
         return True
 
@@ -1033,12 +1033,9 @@ class TargetSearch:
             or not self.candidate[goal]
             or goal in excluded
             or battery - cost * (moves + int(self.home[goal])) < floor
+            or not settled.none_found_within(belief, start, moves, self.lands)
         ):
             return False
-        if belief.added_count != settled.added:
-            new = np.frombuffer(belief.added, dtype=np.int64)[settled.added : belief.added_count]
-            if not all_beyond(new, start, moves, belief.stride, self.lands):
-                return False
         claimed = settled.claimed
         if claimed.size:
             released = claimed[self.candidate[claimed] != 0]

@@ -50,6 +50,7 @@ from __future__ import annotations
 import numpy as np
 
 from planner.belief import MapBelief
+from planner.bounded_search import all_beyond
 
 
 class OnFirstWay:
@@ -81,6 +82,16 @@ class OnFirstWay:
         if at + 1 < cells.size and cells[at + 1] == start:
             return at + 1
         return -1
+
+    def none_found_within(
+        self, belief: MapBelief, start: int, moves: int, lands: np.ndarray
+    ) -> bool:
+        """Does every cell found since the last decision lie more than ``moves``
+        from ``start``, by the lower bounds (``lands``: the landmarks' distances)?"""
+        if belief.added_count == self.added:
+            return True
+        new = np.frombuffer(belief.added, dtype=np.int64)[self.added : belief.added_count]
+        return all_beyond(new, start, moves, belief.stride, lands)
 
     def carry(self, at: int, belief: MapBelief) -> None:
         """The agent is at ``cells[at]`` and what was kept still holds."""
