@@ -722,7 +722,7 @@ class TargetSearch:
             found = self._first_among(start, pair, moves, rank, hold, others, energy, way)
             if tie is not None:
                 if found is not None and found[1] == goal:
-                    tie.keep(self._first_way(start, moves), rival, self.belief)
+                    tie.keep(self._way_cells(start, moves), rival, self.belief)
                 else:
                     tie.forget()
             return found
@@ -731,11 +731,15 @@ class TargetSearch:
             start, self._rivals[: count + 1], moves, rank, hold, others, energy, way
         )
 
-    def _first_way(self, start: int, moves: int) -> np.ndarray:
-        """The start, then the search's first way that ``_way_to`` just unwound."""
+    def _way_cells(self, start: int, moves: int, way: Sequence[int] | None = None) -> np.ndarray:
+        """The start, then ``way`` (None: the search's first way, as ``_way_to``
+        just unwound it), ``moves`` cells."""
         cells = np.empty(moves + 1, dtype=np.int64)
         cells[0] = start
-        cells[1:] = self._way[moves - 1 :: -1]
+        if way is None:
+            cells[1:] = self._way[moves - 1 :: -1]
+        else:
+            cells[1:] = np.fromiter(way, dtype=np.int64, count=moves)
         return cells
 
     def _tie_holds(self, start: int, goal: int, rival: int, moves: int, tie: SettledTie) -> bool:
@@ -1058,13 +1062,9 @@ class TargetSearch:
         if found is None or found[0] != 0 or not found[2]:
             return
         path = found[2]
-        moves = len(path)
-        if self._alone:
-            cells = np.empty(moves + 1, dtype=np.int64)
-            cells[0] = start
-            cells[1:] = np.fromiter(path, dtype=np.int64, count=moves)
-        else:
-            cells = self._first_way(start, moves)
+        # Any shortest way keeps a target no other candidate was as near as
+        # (``_alone``); else only the search's first way does.
+        cells = self._way_cells(start, len(path), path if self._alone else None)
         settled.keep(cells, energy[0], energy[1:], self.belief, np.array(excluded, np.int64))
 
 
