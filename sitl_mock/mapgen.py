@@ -88,7 +88,7 @@ def rooms(
     corridor_width: int = 2,
     corridor_prob: float = 0.25,
 ) -> GridMap:
-    """Rooms and corridors by recursive division.
+    """A maze of rooms and corridors by recursive division.
 
     Walls are one cell thick; every wall has one door of ``door_width`` cells.
     A split is sometimes a corridor (two parallel walls ``corridor_width``
@@ -96,40 +96,62 @@ def rooms(
     cells on a side (larger only when the map itself is too small to divide).
     """
     _check_size(height, width)
-    if room_min < 1 or room_max < 2 * room_min + 1:
-        raise ValueError(
-            f"need room_min >= 1 and room_max >= 2 * room_min + 1, got {room_min}, {room_max}"
-        )
-    if not 1 <= door_width <= room_min:
-        raise ValueError(f"door_width must be in 1..room_min ({room_min}), got {door_width}")
-    if corridor_width < 1:
-        raise ValueError(f"corridor_width must be >= 1, got {corridor_width}")
+    shape = _RoomShape(room_min, room_max, door_width, corridor_width, corridor_prob)
     rng = np.random.default_rng(seed)
-    shape = _RoomShape(room_min, door_width, corridor_width, corridor_prob)
     obstacle = np.zeros((height, width), dtype=bool)
     _set_border(obstacle)
-    # Regions are inclusive interior boxes (r0, c0, r1, c1) of free cells.
-    stack = [(1, 1, height - 2, width - 2)]
-    while stack:
-        r0, c0, r1, c1 = stack.pop()
-        h, w = r1 - r0 + 1, c1 - c0 + 1
-        if max(h, w) <= room_max:
-            continue
-        if h >= w:
-            # Horizontal walls: divide the transposed view, then swap back.
-            parts = _divide(obstacle.T, (c0, r0, c1, r1), rng, shape)
-            stack.extend((a, b, c, d) for b, a, d, c in parts)
-        else:
-            stack.extend(_divide(obstacle, (r0, c0, r1, c1), rng, shape))
+    _rooms_in(obstacle, (1, 1, height - 2, width - 2), rng, shape)
     return _finish(obstacle, connect_width=2)
 
 
 @dataclass(frozen=True)
 class _RoomShape:
     room_min: int
+    room_max: int
     door_width: int
     corridor_width: int
     corridor_prob: float
+
+    def __post_init__(self) -> None:
+        room_min, room_max, door_width = self.room_min, self.room_max, self.door_width
+        if room_min < 1 or room_max < 2 * room_min + 1:
+            raise ValueError(
+                f"need room_min >= 1 and room_max >= 2 * room_min + 1, got {room_min}, {room_max}"
+            )
+        if not 1 <= door_width <= room_min:
+            raise ValueError(f"door_width must be in 1..room_min ({room_min}), got {door_width}")
+        if self.corridor_width < 1:
+            raise ValueError(f"corridor_width must be >= 1, got {self.corridor_width}")
+
+
+#: A box of free cells, rows ``r0..r1`` and columns ``c0..c1`` inclusive.
+_Box = tuple[int, int, int, int]
+
+
+def _rooms_in(
+    obstacle: np.ndarray, region: _Box, rng: np.random.Generator, shape: _RoomShape
+) -> list[_Box]:
+    """Divide ``region`` (walled all round in ``obstacle``) into rooms by recursive
+    division, one door in every wall; returns the rooms."""
+    leaves: list[_Box] = []
+    stack = [region]
+    while stack:
+        r0, c0, r1, c1 = stack.pop()
+        h, w = r1 - r0 + 1, c1 - c0 + 1
+        if max(h, w) <= shape.room_max:
+            leaves.append((r0, c0, r1, c1))
+            continue
+        if h >= w:
+            # Horizontal walls: divide the transposed view, then swap back.
+            parts = [
+                (a, b, c, d) for b, a, d, c in _divide(obstacle.T, (c0, r0, c1, r1), rng, shape)
+            ]
+        else:
+            parts = _divide(obstacle, (r0, c0, r1, c1), rng, shape)
+        if not parts:
+            leaves.append((r0, c0, r1, c1))
+        stack.extend(parts)
+    return leaves
 
 
 def _divide(
@@ -165,6 +187,85 @@ def _divide(
         door = r0 + int(rng.integers(r1 - r0 + 2 - door_width))
         grid[door : door + door_width, col] = False
     return [(r0, c0, r1, wall - 1), (r0, walls[-1] + 1, r1, c1)]
+
+
+# ----------------------------------------------------------------------- building
+
+
+def building(
+    height: int = 60,
+    width: int = 60,
+    seed: int = 0,
+    *,
+    block: int = 40,
+    hall_width: int = 3,
+    room_min: int = 4,
+    room_max: int = 12,
+    door_width: int = 2,
+) -> GridMap:
+    """Rooms off a grid of halls, like the floor of an office block.
+
+    Halls ``hall_width`` cells wide run across the map both ways with blocks of
+    ``block`` cells a side between them (walls included); each block is
+    divided into rooms as ``rooms`` divides the map (one door in every wall),
+    and each room on a block's edge has a door onto a hall beside it. So the
+    way between two rooms follows the halls, near the Manhattan distance,
+    where in the single maze of ``rooms`` it winds through every wall between.
+    """
+    _check_size(height, width)
+    shape = _RoomShape(room_min, room_max, door_width, 1, 0.0)  # no corridors in a block
+    if hall_width < 1:
+        raise ValueError(f"hall_width must be >= 1, got {hall_width}")
+    if block < room_min + 2:
+        raise ValueError(f"block must be >= room_min + 2 ({room_min + 2}), got {block}")
+    rng = np.random.default_rng(seed)
+    obstacle = np.zeros((height, width), dtype=bool)
+    _set_border(obstacle)
+    for a0, a1 in _blocks_along(height, block, hall_width):
+        for b0, b1 in _blocks_along(width, block, hall_width):
+            obstacle[a0 : a1 + 1, b0 : b1 + 1] = True
+            obstacle[a0 + 1 : a1, b0 + 1 : b1] = False
+            for room in _rooms_in(obstacle, (a0 + 1, b0 + 1, a1 - 1, b1 - 1), rng, shape):
+                _door_out(obstacle, room, (a0, b0, a1, b1), rng, door_width)
+    return _finish(obstacle, connect_width=min(hall_width, 2))
+
+
+def _blocks_along(length: int, block: int, hall: int) -> list[tuple[int, int]]:
+    """The spans (first, last) of the blocks along a side of ``length`` cells, a
+    hall inside each border and one between each two: as many blocks as fit at
+    ``block`` cells (at least one), stretched to fill the side."""
+    inside = length - 2 - hall
+    count = max(1, inside // (block + hall))
+    if inside - count * hall < 3:
+        return []  # no room for a block with a wall round it
+    room = inside - count * hall  # for the blocks themselves
+    spans = []
+    at = 1 + hall
+    for k in range(count):
+        size = room // count + (1 if k < room % count else 0)
+        spans.append((at, at + size - 1))
+        at += size + hall
+    return spans
+
+
+def _door_out(
+    obstacle: np.ndarray, room: _Box, block: _Box, rng: np.random.Generator, door_width: int
+) -> None:
+    """A door in one of ``room``'s walls that are the walls of its ``block``, if any."""
+    r0, c0, r1, c1 = room
+    a0, b0, a1, b1 = block
+    walls = [
+        (row, c0, c1, True) for row, edge in ((a0, r0 == a0 + 1), (a1, r1 == a1 - 1)) if edge
+    ] + [(col, r0, r1, False) for col, edge in ((b0, c0 == b0 + 1), (b1, c1 == b1 - 1)) if edge]
+    if not walls:
+        return
+    line, lo, hi, across = walls[int(rng.integers(len(walls)))]
+    door_width = min(door_width, hi - lo + 1)  # a room squeezed by a small map
+    door = lo + int(rng.integers(hi - lo + 2 - door_width))
+    if across:
+        obstacle[line, door : door + door_width] = False
+    else:
+        obstacle[door : door + door_width, line] = False
 
 
 # -------------------------------------------------------------------------- caves

@@ -26,10 +26,7 @@ def test_planner_cases_print_and_write_their_figures(tmp_path: Path, capsys) -> 
     assert figures["reference_s"] > 0  # the machine's pace on the day, beside the figures
     rows = figures["planner"]
     assert [(r["kind"], r["size"], r["agents"]) for r in rows] == [
-        ("rooms", 24, 1),
-        ("rooms", 24, 3),
-        ("open", 24, 1),
-        ("open", 24, 3),
+        (kind, 24, n) for kind in ("rooms", "building", "open") for n in (1, 3)
     ]
     for r in rows:
         assert r["coverage_pct"] == 100.0 and r["lost"] == 0
@@ -81,7 +78,7 @@ def test_a_case_over_its_limit_is_reported_not_waited_for(tmp_path: Path, capsys
     [
         (["--sizes", "ten"], "--sizes: expected comma-separated numbers, got 'ten'"),
         (["--agents", "0"], "--agents: expected positive numbers, got '0'"),
-        (["--kinds", "caves"], "--kinds: choose from rooms, open, got 'caves'"),
+        (["--kinds", "caves"], "--kinds: choose from rooms, building, open, got 'caves'"),
         (["--set", "far_transit_recheck=-1"], "far_transit_recheck must not be negative"),
         (["--set", "speed=2"], "--set: unknown setting 'speed'"),
     ],
@@ -148,4 +145,6 @@ def test_the_planner_is_compiled_before_the_cases_fork(monkeypatch, tmp_path: Pa
     monkeypatch.setattr(bench_perf, "simulate", recording)
     args = ["bench", "perf", "--sizes", "24", "--agents", "2", "--skip-live"]
     assert main([*args, "--set", "far_transit_recheck=3", "--json", str(tmp_path / "p.json")]) == 0
-    assert planned == [("warm-up-rooms", 3), ("warm-up-open", 3)]  # the cases ran in children
+    assert planned == [
+        (f"warm-up-{kind}", 3) for kind in ("rooms", "building", "open")
+    ]  # the cases ran in children

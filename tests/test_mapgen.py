@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections import deque
 from collections.abc import Callable
 from pathlib import Path
 
@@ -22,6 +23,7 @@ Generator = Callable[[int, int, int], GridMap]
 GENERATORS: dict[str, Generator] = {
     "bars": lambda h, w, seed: mapgen.bars(h, w, seed=seed),
     "rooms": lambda h, w, seed: mapgen.rooms(h, w, seed),
+    "building": lambda h, w, seed: mapgen.building(h, w, seed, block=int(seed % 30) + 6),
     "caves": lambda h, w, seed: mapgen.caves(h, w, seed),
     "branching": lambda h, w, seed: mapgen.branching(h, w, seed),
     "open": lambda h, w, seed: mapgen.open_field(h, w, seed, 0.2),
@@ -31,6 +33,7 @@ GENERATORS: dict[str, Generator] = {
 #: Generators whose passages are at least two cells wide by construction.
 WIDE = {
     "rooms": lambda h, w, seed: mapgen.rooms(h, w, seed),
+    "building": lambda h, w, seed: mapgen.building(h, w, seed),
     "branching": lambda h, w, seed: mapgen.branching(h, w, seed),
     "open_clear2": lambda h, w, seed: mapgen.open_field(h, w, seed, 0.3, clearance=2),
 }
@@ -144,6 +147,9 @@ def test_caves_with_solid_rock_still_have_an_entrance() -> None:
         lambda: mapgen.bars(30, 30, min_len=5, max_len=4),
         lambda: mapgen.rooms(30, 30, room_min=4, room_max=8),
         lambda: mapgen.rooms(30, 30, door_width=5),
+        lambda: mapgen.building(30, 30, block=5),
+        lambda: mapgen.building(30, 30, hall_width=0),
+        lambda: mapgen.building(30, 30, door_width=5),
         lambda: mapgen.caves(30, 30, fill=1.5),
         lambda: mapgen.branching(30, 30, min_width=3, max_width=2),
         lambda: mapgen.open_field(30, 30, density=1.0),
@@ -154,7 +160,7 @@ def test_bad_parameters_raise_value_error(call: Callable[[], GridMap]) -> None:
         call()
 
 
-@pytest.mark.parametrize("kind", ["bars", "rooms", "caves", "branching", "open"])
+@pytest.mark.parametrize("kind", ["bars", "rooms", "building", "caves", "branching", "open"])
 def test_300_by_300_is_fast(kind: str) -> None:
     start = time.perf_counter()
     GENERATORS[kind](300, 300, 1)
@@ -191,3 +197,38 @@ def test_cli_rejects_a_malformed_size() -> None:
     with pytest.raises(SystemExit) as info:
         run_cli("map", "open", "--size", "30by30")
     assert info.value.code == 2
+
+
+def detour_ratio(grid: GridMap) -> float:
+    """The mean, over the free cells, of the way from the pad over the Manhattan distance."""
+    height, width = grid.shape
+    pad = grid.charger
+    dist = np.full((height, width), -1, dtype=np.int64)
+    dist[pad] = 0
+    queue = deque([pad])
+    while queue:
+        r, c = queue.popleft()
+        for nr, nc in ((r - 1, c), (r + 1, c), (r, c - 1), (r, c + 1)):
+            if 0 <= nr < height and 0 <= nc < width and dist[nr, nc] < 0 and grid.is_free((nr, nc)):
+                dist[nr, nc] = dist[r, c] + 1
+                queue.append((nr, nc))
+    rows, cols = np.nonzero(dist > 0)
+    manhattan = np.abs(rows - pad[0]) + np.abs(cols - pad[1])
+    return float((dist[rows, cols] / manhattan).mean())
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_building_ways_follow_the_halls(seed: int) -> None:
+    """Rooms off halls: the way to a cell is near the Manhattan distance, where
+    in the maze of ``rooms`` it winds through the walls between."""
+    building = mapgen.building(200, 200, seed)
+    assert detour_ratio(building) < 1.15
+    assert detour_ratio(mapgen.rooms(200, 200, seed)) > 2.0
+    # Its rooms are walled off from the halls but for their doors.
+    assert building.free_count < 0.9 * (198 * 198)
+
+
+def test_cli_builds_a_building_with_its_options(tmp_path: Path) -> None:
+    out = tmp_path / "b.txt"
+    assert run_cli("map", "building", "--size", "90x70", "--block", "20", "--out", str(out)) == 0
+    assert np.array_equal(load_map(out).obstacle, mapgen.building(90, 70, 0, block=20).obstacle)

@@ -19,6 +19,7 @@ from sitl_mock.maps import to_ascii
 class MapKind(StrEnum):
     BARS = "bars"
     ROOMS = "rooms"
+    BUILDING = "building"
     CAVES = "caves"
     BRANCHING = "branching"
     OPEN = "open"
@@ -58,6 +59,18 @@ def _rooms_options(parser: argparse.ArgumentParser) -> None:
         default=0.25,
         help="chance that a division is a corridor (default: 0.25)",
     )
+
+
+def _building_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--block", type=int, default=40, help="block side between halls, walls in (default: 40)"
+    )
+    parser.add_argument("--hall-width", type=int, default=3, help="hall width (default: 3)")
+    parser.add_argument("--room-min", type=int, default=4, help="smallest room side (default: 4)")
+    parser.add_argument(
+        "--room-max", type=int, default=12, help="rooms larger than this are divided (default: 12)"
+    )
+    parser.add_argument("--door-width", type=int, default=2, help="door width (default: 2)")
 
 
 def _caves_options(parser: argparse.ArgumentParser) -> None:
@@ -115,7 +128,7 @@ KINDS: dict[MapKind, _KindInfo] = {
         lambda a, h, w: mapgen.bars(h, w, a.count, a.min_len, a.max_len, a.seed),
     ),
     MapKind.ROOMS: _KindInfo(
-        "rooms and corridors joined by doors",
+        "a maze of rooms by recursive division, one door in every wall",
         (60, 60),
         _rooms_options,
         lambda a, h, w: mapgen.rooms(
@@ -127,6 +140,21 @@ KINDS: dict[MapKind, _KindInfo] = {
             door_width=a.door_width,
             corridor_width=a.corridor_width,
             corridor_prob=a.corridor_prob,
+        ),
+    ),
+    MapKind.BUILDING: _KindInfo(
+        "rooms off a grid of halls, like an office floor (ways near the Manhattan distance)",
+        (60, 60),
+        _building_options,
+        lambda a, h, w: mapgen.building(
+            h,
+            w,
+            a.seed,
+            block=a.block,
+            hall_width=a.hall_width,
+            room_min=a.room_min,
+            room_max=a.room_max,
+            door_width=a.door_width,
         ),
     ),
     MapKind.CAVES: _KindInfo(
