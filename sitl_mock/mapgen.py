@@ -221,8 +221,8 @@ def building(
     rng = np.random.default_rng(seed)
     obstacle = np.zeros((height, width), dtype=bool)
     _set_border(obstacle)
-    for a0, a1 in _blocks_along(height, block, hall_width):
-        for b0, b1 in _blocks_along(width, block, hall_width):
+    for a0, a1 in _blocks_along(height, block, hall_width, room_min + 2):
+        for b0, b1 in _blocks_along(width, block, hall_width, room_min + 2):
             obstacle[a0 : a1 + 1, b0 : b1 + 1] = True
             obstacle[a0 + 1 : a1, b0 + 1 : b1] = False
             for room in _rooms_in(obstacle, (a0 + 1, b0 + 1, a1 - 1, b1 - 1), rng, shape):
@@ -230,13 +230,14 @@ def building(
     return _finish(obstacle, connect_width=min(hall_width, 2))
 
 
-def _blocks_along(length: int, block: int, hall: int) -> list[tuple[int, int]]:
+def _blocks_along(length: int, block: int, hall: int, smallest: int) -> list[tuple[int, int]]:
     """The spans (first, last) of the blocks along a side of ``length`` cells, a
     hall inside each border and one between each two: as many blocks as fit at
-    ``block`` cells (at least one), stretched to fill the side."""
+    ``block`` cells (at least one, if one of ``smallest`` fits), stretched to
+    fill the side."""
     inside = length - 2 - hall
     count = max(1, inside // (block + hall))
-    if inside - count * hall < 3:
+    if inside - count * hall < smallest:
         return []  # no room for a block with a wall round it
     room = inside - count * hall  # for the blocks themselves
     spans = []
