@@ -261,7 +261,6 @@ def _door_out(
     if not walls:
         return
     line, lo, hi, across = walls[int(rng.integers(len(walls)))]
-    door_width = min(door_width, hi - lo + 1)  # a room squeezed by a small map
     door = lo + int(rng.integers(hi - lo + 2 - door_width))
     if across:
         obstacle[line, door : door + door_width] = False
