@@ -640,10 +640,11 @@ class Coordinator:
             a.path_known_at = self.belief.stamp
             if self.settings.far_transit_recheck:
                 a.recheck_in = max(0, (len(path) - self.settings.far_transit_recheck) // 2)
-            kind = EventKind.SAFETY_NET if tier == _Tier.NET else EventKind.TARGET
-            if tier == _Tier.NET:
-                self.safety_net_fires += 1
-            self._events.append(PlannerEvent(kind, a.id, self.belief.cell(goal)))
+            if goal != previous:  # a choice, not the target confirmed on the way to it
+                kind = EventKind.SAFETY_NET if tier == _Tier.NET else EventKind.TARGET
+                if tier == _Tier.NET:
+                    self.safety_net_fires += 1
+                self._events.append(PlannerEvent(kind, a.id, self.belief.cell(goal)))
             return self._follow(a, goal)
         if any_candidate and (
             a.index != self.belief.charger_index or a.battery_pct < self.settings.resume_pct - _EPS

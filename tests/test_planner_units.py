@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from planner import btp
 from planner.belief import UNREACHED, MapBelief
-from planner.coordinator import ActionKind, AgentMode, Coordinator, EventKind
+from planner.coordinator import ActionKind, AgentMode, Coordinator, EventKind, PlannerEvent
 from planner.grid import MOVES, NEIGHBOURS, Cell, CellState, Direction
 from planner.paths import bfs_distances, nearest, path_to_charger, shortest_path
 from planner.prm import Roadmap, line_cells
@@ -404,9 +404,9 @@ def test_walls_found_after_a_loss_close_the_way_round() -> None:
     assert c.out_of_range_cells() == [(0, 2)]
 
 
-def _walk_to_the_far_end(far_transit_recheck: int) -> tuple[int, int]:
-    """Searches (target events) and moves of one agent crossing a long corridor whose
-    only uncovered cell is at the far end."""
+def _walk_to_the_far_end(far_transit_recheck: int) -> tuple[int, int, list[PlannerEvent]]:
+    """Searches for a target, moves and the planner's events of one agent crossing a
+    long corridor whose only uncovered cell is at the far end."""
     length = 60
     known = np.full((1, length), int(FREE), dtype=np.int8)
     covered = np.ones((1, length), dtype=bool)
@@ -418,9 +418,18 @@ def _walk_to_the_far_end(far_transit_recheck: int) -> tuple[int, int]:
     readings = {d: OBST if d.of(cell)[0] != 0 else FREE for d in NEIGHBOURS}
     coordinator.observe(1, cell, readings, 100.0)
     searches = moves = 0
+    search = coordinator._search.run
+
+    def counted(*args, **kwargs):
+        nonlocal searches
+        searches += 1
+        return search(*args, **kwargs)
+
+    coordinator._search.run = counted  # type: ignore[method-assign]
+    events: list[PlannerEvent] = []
     while coordinator.belief.covered_count < length:
         action = coordinator.decide(1)
-        searches += sum(e.kind == EventKind.TARGET for e in coordinator.drain_events())
+        events += coordinator.drain_events()
         assert action.kind == ActionKind.MOVE and action.to is not None
         cell = action.to
         moves += 1
@@ -429,17 +438,27 @@ def _walk_to_the_far_end(far_transit_recheck: int) -> tuple[int, int]:
             for d in NEIGHBOURS
         }
         coordinator.observe(1, cell, readings, 100.0)
-    return searches, moves
+    return searches, moves, events
 
 
 def test_far_targets_are_searched_for_again_less_often() -> None:
-    every_step, moves = _walk_to_the_far_end(0)
+    every_step, moves, _ = _walk_to_the_far_end(0)
     assert moves == 59 and every_step == 58  # the last move sweeps a neighbour: no search
-    fewer, same_moves = _walk_to_the_far_end(8)
+    fewer, same_moves, _ = _walk_to_the_far_end(8)
     assert same_moves == moves
     # Searches 59, 33, 20, 13, 10 and 8 moves from the end (half the way beyond 8
     # between two), then at every step within 8 until the end is a neighbour.
     assert fewer == 12
+
+
+def test_a_target_confirmed_on_the_way_is_not_taken_again() -> None:
+    """Deciding again at every step of the way, the agent takes its target once: one
+    event, not one per step (the log's BTP timeline and the safety net's count and
+    messages come from these events)."""
+    searches, _, events = _walk_to_the_far_end(0)
+    taken = [e for e in events if e.kind in (EventKind.TARGET, EventKind.SAFETY_NET)]
+    assert searches == 58
+    assert taken == [PlannerEvent(EventKind.TARGET, 1, (0, 59))]
 
 
 def test_the_planned_way_home_is_the_way_granted_cell_by_cell() -> None:
