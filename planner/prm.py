@@ -126,17 +126,20 @@ class Roadmap:
         candidates: set[int],
         accept: Callable[[int, int], bool],
     ) -> tuple[int, list[int]] | None:
-        """The candidate with the shortest roadmap path that ``accept(goal, moves)`` takes."""
+        """The candidate with the shortest roadmap path that ``accept(goal, moves)`` takes.
+
+        When it takes none, the exact search decides: some candidates may be off
+        the roadmap, or its detours may make every one on it too costly where a
+        shortest way is not (refusing then would leave a fully charged agent at
+        the charger for ever, with cells in range left uncovered)."""
         graph = self._query_graph(belief, [start, *candidates])
         lengths, routes = nx.single_source_dijkstra(graph, start, weight="weight")
         ranked = sorted((int(lengths[g]), g) for g in candidates if g in lengths)
         for moves, goal in ranked:
             if accept(goal, moves):
                 return goal, self._expand(belief, routes[goal])
-        if len(ranked) < len(candidates):  # some candidates are off the roadmap
-            self.fallbacks += 1
-            return nearest(belief, start, lambda i, d: i in candidates and accept(i, d))
-        return None
+        self.fallbacks += 1
+        return nearest(belief, start, lambda i, d: i in candidates and accept(i, d))
 
     def path(self, belief: MapBelief, start: int, goal: int) -> list[int] | None:
         if start == goal:

@@ -14,6 +14,7 @@ from planner.grid import NEIGHBOURS
 from planner.settings import BmRule, PathPlannerKind, TargetPolicy
 from sitl_mock import mapgen
 from sitl_mock.gridmap import GridMap
+from sitl_mock.maps import parse_ascii
 from tests.checks import check_run, energy_for_round_trips, make_mission
 
 KINDS = {
@@ -133,3 +134,41 @@ def test_the_planner_never_sees_the_truth(grid: GridMap, agents: int, seed: int)
     second = simulate(make_mission(dataclasses.replace(grid, obstacle=other), agents))
     assert [a.track for a in second.agents] == [a.track for a in first.agents]
     assert [a.battery_pct for a in second.agents] == [a.battery_pct for a in first.agents]
+
+
+#: Found by a long hypothesis run (``caves(12, 12, 12043)``): with the paper's
+#: roadmap, the last cells' roadmap ways cost more than a full charge allows
+#: while their shortest ways do not.
+ROADMAP_DETOUR = """
+############
+############
+##......####
+#........###
+#.......####
+#......#####
+##....######
+##......####
+##......####
+######..####
+######..####
+######C#####
+"""
+
+
+def test_a_roadmap_detour_never_strands_a_charged_agent() -> None:
+    """When no cell left is affordable by the roadmap's ways, the exact search
+    decides: the agent used to wait at the charger, fully charged, for ever, with
+    cells in range left uncovered."""
+    grid = parse_ascii(ROADMAP_DETOUR.strip())
+    mission = make_mission(grid, 1, _energy_for(grid, 0.25))
+    settings_ = planner_settings(
+        mission,
+        target_policy=TargetPolicy.OWN_FIRST,
+        spread=False,
+        replan_transit=False,
+        bm_spread=False,
+        hold_radius=0,
+        top_up_ratio=0.0,
+    )
+    result = run_checked(mission, dataclasses.replace(settings_, path_planner=PathPlannerKind.PRM))
+    assert result.out_of_range_cells == 0
