@@ -60,6 +60,7 @@ from gcs.mission import (
 )
 from gcs.preflight import charger_distances
 from gcs.simulate import SimOptions, planner_settings, simulate
+from planner import native
 from sitl_mock import mapgen
 from sitl_mock.gridmap import GridMap
 from sitl_mock.maps import to_ascii
@@ -489,6 +490,16 @@ def goals_table(found: list[Goal]) -> Table:
     return table
 
 
+def planner_build() -> str:
+    """How the planner runs, for the figures: compiled, or Python and why."""
+    if native.compiled():
+        return "compiled (mypyc: " + ", ".join(native.COMPILED) + ")"
+    changed = native.stale()
+    if changed:
+        return "Python: " + ", ".join(changed) + " changed since the build (pip install -e .)"
+    return "Python (installed without compiling: STAYING_ALIVE_PURE, or no C compiler)"
+
+
 def run_perf(args: argparse.Namespace) -> int:
     sizes = positive_numbers(args.sizes, "sizes")
     agents = positive_numbers(args.agents, "agents")
@@ -504,11 +515,13 @@ def run_perf(args: argparse.Namespace) -> int:
         "machine": platform.platform(),
         "python": platform.python_version(),
         "reference_s": round(pace_s, 3),
+        "planner_compiled": native.compiled(),
     }
     console.print(
         f"machine pace: the reference workload took {pace_s:.3f} s "
         "(gcs/machine_pace.py; compare figures only at like paces)"
     )
+    console.print(f"planner: {planner_build()}")
     planner_rows: list[dict[str, Any]] = []
     live_rows: list[dict[str, Any]] = []
     if not args.skip_planner:

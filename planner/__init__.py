@@ -1,0 +1,3 @@
+from planner.native import use_sources_if_stale
+
+use_sources_if_stale()

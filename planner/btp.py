@@ -11,6 +11,8 @@ holds it). A BTP leaves the stacks as soon as any agent covers it (eq. 3).
 
 from __future__ import annotations
 
+from typing import Final
+
 from planner.belief import MapBelief
 from planner.grid import CellState, Direction
 
@@ -42,7 +44,7 @@ def detect(belief: MapBelief, index: int, heading: Direction) -> list[int]:
 class BtpStacks:
     """The local stacks of every agent; together they form the global stack."""
 
-    POOL = -1  # owner of BTPs handed back by lost agents
+    POOL: Final = -1  # owner of BTPs handed back by lost agents
 
     def __init__(self) -> None:
         self.owner: dict[int, int] = {}

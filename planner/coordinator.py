@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from enum import IntEnum, StrEnum
 
@@ -618,7 +618,7 @@ class Coordinator:
                 found = self._roadmap.nearest(
                     self.belief, a.index, candidates, lambda i, d: self._can_afford(a, d, i)
                 )
-            if found is HELD:
+            if isinstance(found, _Held):
                 a.mode = _IDLE
                 a.held_backoff = min(2 * a.held_backoff + 1, self.settings.held_backoff_max)
                 a.held_for = a.held_backoff
@@ -653,7 +653,7 @@ class Coordinator:
         a.mode = _IDLE
         return WAIT
 
-    def _pool(self, tier: _Tier, a: _Agent) -> set[int] | dict[int, None]:
+    def _pool(self, tier: _Tier, a: _Agent) -> Collection[int]:
         if tier == _Tier.OWN:
             return self.stacks.own(a.id)
         if tier == _Tier.GLOBAL:

@@ -540,7 +540,11 @@ class TargetSearch:
         self._few = np.zeros(self.FEW, dtype=np.int64)
         self._no_near = np.zeros(0, dtype=np.int64)  # ``rivals_listed`` keeps none
         #: A second ``seen``, ``queue`` and ``parent``, for ``_search``.
-        self._spare = tuple(np.zeros(size, dtype=np.int32) for _ in range(3))
+        self._spare = (
+            np.zeros(size, dtype=np.int32),
+            np.zeros(size, dtype=np.int32),
+            np.zeros(size, dtype=np.int32),
+        )
         self._pool_mask = np.zeros(size, dtype=np.uint8)
         self._blocked = np.zeros(size, dtype=np.uint8)
         self.home = np.frombuffer(belief.charger_dist, dtype=np.int32)
@@ -821,7 +825,7 @@ class TargetSearch:
         energy: tuple[float, float, float, float, float],
         others: tuple[np.ndarray, np.ndarray],
         hold: int,
-    ) -> tuple[bool, tuple[int, int, list[int]] | None]:
+    ) -> tuple[bool, tuple[int, int, Sequence[int]] | None]:
         """``(True, what the search returns)`` when every candidate is surely left
         to another agent (within ``hold`` of one, and nearer to it), else
         ``(False, None)``.

@@ -1,0 +1,79 @@
+"""The planner's compiled modules (``planner/native.py``): used when built from the
+sources as they are, never when a source changed since the build."""
+
+from __future__ import annotations
+
+import importlib.machinery
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from planner import native
+
+SUFFIX = importlib.machinery.EXTENSION_SUFFIXES[0]
+
+
+def _planner_copy(root: Path) -> Path:
+    """The planner's sources under ``root``, each compiled module with an extension
+    file beside it that cannot load (so only the sources can run), and a record
+    of the sources as they are."""
+    shutil.copytree(
+        Path(native.__file__).parent,
+        root / "planner",
+        ignore=shutil.ignore_patterns("*.so", "*.json", "__pycache__"),
+    )
+    for module in native.COMPILED:
+        native.source_of(module, root).with_suffix(SUFFIX).write_bytes(b"not a library")
+    (root / "planner" / native.RECORD).write_text(json.dumps(native.record(root)))
+    return root
+
+
+def test_every_compiled_module_is_a_planner_source() -> None:
+    for module in native.COMPILED:
+        assert module.startswith("planner.")
+        assert native.source_of(module).is_file()
+
+
+def test_a_source_changed_since_the_build_is_stale(tmp_path: Path) -> None:
+    root = _planner_copy(tmp_path)
+    assert native.stale(root) == []
+    with native.source_of("planner.belief", root).open("a") as source:
+        source.write("# changed\n")
+    assert native.stale(root) == ["planner.belief"]
+    (root / "planner" / native.RECORD).unlink()
+    assert native.stale(root) == list(native.COMPILED)  # built, but from what is unknown
+
+
+def test_a_stale_build_runs_every_compiled_module_from_its_source(tmp_path: Path) -> None:
+    root = _planner_copy(tmp_path)
+    with native.source_of("planner.belief", root).open("a") as source:
+        source.write("# changed\n")
+    probe = (
+        "import planner.coordinator, sys\n"
+        "from planner import native\n"
+        "print([sys.modules[m].__file__.endswith('.py') for m in native.COMPILED])"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe],
+        cwd=root,
+        env={**os.environ, "PYTHONPATH": str(root)},
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=True,
+    )
+    # The extensions beside them cannot load: each module came from its source.
+    assert done.stdout.strip() == str([True] * len(native.COMPILED))
+    assert "planner.belief changed since the planner was compiled" in done.stderr
+
+
+def test_the_installed_planner_runs_compiled_unless_its_sources_changed() -> None:
+    if native.stale():
+        assert not native.compiled()  # the sources run, not what was built from others
+    elif os.environ.get("STAYING_ALIVE_PURE"):
+        assert not any(native.built(m) for m in native.COMPILED)
+    else:
+        assert native.compiled(), "the install did not compile the planner (see setup.py)"
