@@ -77,11 +77,8 @@ def stale(root: Path = HERE.parent) -> list[str]:
 
 def compiled() -> bool:
     """Does the planner run compiled: every module of ``COMPILED`` loaded native?"""
-    for name in COMPILED:
-        module = sys.modules.get(name) or importlib.import_module(name)
-        if not (module.__file__ or "").endswith(tuple(importlib.machinery.EXTENSION_SUFFIXES)):
-            return False
-    return True
+    native = tuple(importlib.machinery.EXTENSION_SUFFIXES)
+    return all((importlib.import_module(m).__file__ or "").endswith(native) for m in COMPILED)
 
 
 class _FromSources(importlib.abc.MetaPathFinder):

@@ -21,7 +21,7 @@ def _planner_copy(root: Path) -> Path:
     file beside it that cannot load (so only the sources can run), and a record
     of the sources as they are."""
     shutil.copytree(
-        Path(native.__file__).parent,
+        native.HERE,
         root / "planner",
         ignore=shutil.ignore_patterns("*.so", "*.json", "__pycache__"),
     )
