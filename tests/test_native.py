@@ -11,7 +11,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from planner import native
+from planner.coordinator import Action, ActionKind
 
 SUFFIX = importlib.machinery.EXTENSION_SUFFIXES[0]
 
@@ -77,3 +80,13 @@ def test_the_installed_planner_runs_compiled_unless_its_sources_changed() -> Non
         assert not any(native.built(m) for m in native.COMPILED)
     else:
         assert native.compiled(), "the install did not compile the planner (see setup.py)"
+
+
+def test_an_action_is_a_value_and_read_only_when_compiled() -> None:
+    move, same = Action(ActionKind.MOVE, (2, 3)), Action(ActionKind.MOVE, (2, 3))
+    assert move == same and hash(move) == hash(same)
+    assert move != Action(ActionKind.MOVE, (3, 2)) and move != Action(ActionKind.WAIT)
+    assert repr(move) == "Action(move, (2, 3))"
+    if native.compiled():
+        with pytest.raises(AttributeError):
+            move.to = (0, 0)  # type: ignore[misc]
