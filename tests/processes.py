@@ -11,6 +11,13 @@ from contextlib import contextmanager
 from pathlib import Path
 
 
+def _as_in_a_terminal() -> None:
+    """Ctrl-C as a terminal's foreground command receives it. A shell starts its
+    background jobs with SIGINT ignored and children inherit that, so the tests
+    run that way (``.ci/run &``) would find every command deaf to Ctrl-C."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @contextmanager
 def gcs_process(*args: str) -> Iterator[subprocess.Popen[str]]:
     """``gcs ARGS`` with text pipes, killed at the end if it is still running."""
@@ -19,6 +26,7 @@ def gcs_process(*args: str) -> Iterator[subprocess.Popen[str]]:
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=_as_in_a_terminal,
     )
     try:
         yield process
