@@ -18,7 +18,9 @@
    event loop is more than ``LOOP_BEHIND_MS`` late at the 99th percentile.
 3. The scaling goals (1000x1000 cells with 50 agents in under 60 s and 2 GB; 64 live
    vehicles under 20 ms decision latency at the 99th percentile), each met or not,
-   when the cases that measure them were run.
+   when the cases that measure them were run. The goal's maps are rooms and
+   corridors (``building``) and open ground; the maze (``rooms``) is judged against
+   the same figures as a stretch, beyond them.
 
 Before them, the machine's pace on the day (``gcs.machine_pace``): a fixed workload's
 time, printed and in the JSON, as shared machines drift by a factor of three.
@@ -37,7 +39,7 @@ import resource
 import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
@@ -82,6 +84,10 @@ LOOP_BEHIND_MS = 100.0
 #: latency at the 99th percentile.
 GOAL_SIDE, GOAL_AGENTS, GOAL_WALL_S, GOAL_PEAK_MB = 1000, 50, 60.0, 2048
 GOAL_VEHICLES, GOAL_P99_MS = 64, 20.0
+#: Map kinds judged against the planner's goal as a stretch beyond the goal's own
+#: maps (rooms and corridors, open ground): the maze, whose ways are 7 times the
+#: Manhattan distance.
+STRETCH_KINDS = frozenset({"rooms"})
 
 
 def register_perf(which: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -430,6 +436,8 @@ class Goal:
     what: str
     measured: str
     met: bool
+    #: Judged beyond the goal's own cases (``STRETCH_KINDS``).
+    stretch: bool = False
 
 
 def goals(planner_rows: list[dict[str, Any]], live_rows: list[dict[str, Any]]) -> list[Goal]:
@@ -443,16 +451,15 @@ def goals(planner_rows: list[dict[str, Any]], live_rows: list[dict[str, Any]]) -
             + settings_text(r.get("settings", {}))
             + f": complete, none lost, under {GOAL_WALL_S:g} s and {GOAL_PEAK_MB} MB"
         )
-        found.append(
-            _judged(
-                what,
-                r,
-                lambda r: (
-                    f"{r['wall_s']:.1f} s, {r['peak_mb']} MB",
-                    r["wall_s"] < GOAL_WALL_S and r["peak_mb"] < GOAL_PEAK_MB,
-                ),
-            )
+        goal = _judged(
+            what,
+            r,
+            lambda r: (
+                f"{r['wall_s']:.1f} s, {r['peak_mb']} MB",
+                r["wall_s"] < GOAL_WALL_S and r["peak_mb"] < GOAL_PEAK_MB,
+            ),
         )
+        found.append(replace(goal, stretch=r["kind"] in STRETCH_KINDS))
     for r in live_rows:
         if r["vehicles"] != GOAL_VEHICLES:
             continue
@@ -486,7 +493,10 @@ def goals_table(found: list[Goal]) -> Table:
     for name in ("goal", "measured", "met"):
         table.add_column(name)
     for goal in found:
-        table.add_row(goal.what, goal.measured, "yes" if goal.met else "NO")
+        met = "yes" if goal.met else "NO"
+        table.add_row(goal.what, goal.measured, f"{met} (stretch)" if goal.stretch else met)
+    if any(goal.stretch for goal in found):
+        table.caption = "stretch: the maze, beyond the goal's maps (rooms and corridors, open)"
     return table
 
 

@@ -119,6 +119,7 @@ def test_the_goals_are_judged_on_the_cases_that_measure_them() -> None:
     ]
     found = goals(planner, live)
     assert [g.met for g in found] == [True, False, False, False, False, False, True, False, False]
+    assert [g.stretch for g in found] == [False, False, True, True, True, True, False, False, False]
     assert "far_transit_recheck 64" in found[0].what and "46.5 s, 497 MB" in found[0].measured
     assert found[5].measured == "over 600 s"
     assert "p99 1.90 ms" in found[6].measured
@@ -126,6 +127,7 @@ def test_the_goals_are_judged_on_the_cases_that_measure_them() -> None:
     console.print(goals_table(found))
     text = console.export_text()
     assert text.count(" yes ") == 2 and text.count(" NO ") == 7
+    assert text.count(" NO (stretch) ") == 4 and "stretch: the maze" in text
 
 
 def test_no_goal_is_judged_without_its_cases() -> None:
