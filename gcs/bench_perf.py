@@ -39,7 +39,7 @@ import resource
 import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
@@ -451,15 +451,17 @@ def goals(planner_rows: list[dict[str, Any]], live_rows: list[dict[str, Any]]) -
             + settings_text(r.get("settings", {}))
             + f": complete, none lost, under {GOAL_WALL_S:g} s and {GOAL_PEAK_MB} MB"
         )
-        goal = _judged(
-            what,
-            r,
-            lambda r: (
-                f"{r['wall_s']:.1f} s, {r['peak_mb']} MB",
-                r["wall_s"] < GOAL_WALL_S and r["peak_mb"] < GOAL_PEAK_MB,
-            ),
+        found.append(
+            _judged(
+                what,
+                r,
+                lambda r: (
+                    f"{r['wall_s']:.1f} s, {r['peak_mb']} MB",
+                    r["wall_s"] < GOAL_WALL_S and r["peak_mb"] < GOAL_PEAK_MB,
+                ),
+                stretch=r["kind"] in STRETCH_KINDS,
+            )
         )
-        found.append(replace(goal, stretch=r["kind"] in STRETCH_KINDS))
     for r in live_rows:
         if r["vehicles"] != GOAL_VEHICLES:
             continue
@@ -478,14 +480,17 @@ def goals(planner_rows: list[dict[str, Any]], live_rows: list[dict[str, Any]]) -
 
 
 def _judged(
-    what: str, row: dict[str, Any], figures: Callable[[dict[str, Any]], tuple[str, bool]]
+    what: str,
+    row: dict[str, Any],
+    figures: Callable[[dict[str, Any]], tuple[str, bool]],
+    stretch: bool = False,
 ) -> Goal:
     """``figures``: the row's own measure of the goal, and whether it is within it."""
     if "error" in row:
-        return Goal(what, row["error"], False)
+        return Goal(what, row["error"], False, stretch)
     measured, within = figures(row)
     covered = f"{row['coverage_pct']:.1f} % covered, {row['lost']} lost, {measured}"
-    return Goal(what, covered, _complete(row) and within)
+    return Goal(what, covered, _complete(row) and within, stretch)
 
 
 def goals_table(found: list[Goal]) -> Table:
