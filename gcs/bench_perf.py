@@ -50,17 +50,8 @@ from rich.table import Table
 from gcs.bench_cli import chosen, json_path, parse_settings, positive_numbers, write_json
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
+from gcs.generated_missions import GENERATORS, MAP_SEED, RESERVE_PCT, case_mission
 from gcs.machine_pace import reference_seconds
-from gcs.mission import (
-    Mission,
-    Origin,
-    PlannerSpec,
-    Sensing,
-    VehicleSpec,
-    VehicleType,
-    default_connection,
-)
-from gcs.preflight import charger_distances
 from gcs.simulate import SimOptions, planner_settings, simulate
 from planner import native
 from sitl_mock import mapgen
@@ -68,13 +59,8 @@ from sitl_mock.gridmap import GridMap
 from sitl_mock.maps import to_ascii
 from vehicles.endpoints import free_loopback_udp_ports
 
-GENERATORS = {"rooms": mapgen.rooms, "building": mapgen.building, "open": mapgen.open_field}
-MAP_SEED = 1
 #: Wall seconds between a planner case's reports of its coverage so far.
 PROGRESS_EVERY_S = 1.0
-RESERVE_PCT = 20.0
-#: A round trip to the farthest cell costs this share of the usable charge.
-FARTHEST_TRIP_SHARE = 2 / 3
 #: Event-loop lateness (99th percentile) above which a live run fell behind.
 LOOP_BEHIND_MS = 100.0
 #: The scaling goals, judged on the figures of the cases that measure them: the
@@ -149,43 +135,6 @@ class PlannerCase:
 
     def figures(self) -> dict[str, Any]:
         return {**asdict(self), "settings": dict(self.settings)}
-
-
-def case_mission(grid: GridMap, agents: int, name: str, connections: list[str] | None = None):
-    """A mission of ``agents`` vehicles on ``grid`` (rovers, every fourth a copter), the
-    battery set as the module says; ``connections`` default to the mission defaults."""
-    probe = _mission(grid, 1, 0.0, name, None)
-    far = int(charger_distances(probe).max())
-    energy = (100.0 - RESERVE_PCT) * FARTHEST_TRIP_SHARE / (2 * max(far, 1))
-    return _mission(grid, agents, energy, name, connections)
-
-
-def _mission(
-    grid: GridMap, agents: int, energy: float, name: str, connections: list[str] | None
-) -> Mission:
-    fleet = tuple(
-        VehicleSpec(
-            sysid=i + 1,
-            type=VehicleType.COPTER if i % 4 == 3 else VehicleType.ROVER,
-            sensing=Sensing.RANGE,
-            connection=connections[i] if connections else default_connection(i + 1),
-            energy_per_m_pct=energy,
-            battery_capacity_mah=5000.0,
-            speed_m_s=2.0,
-            charge_rate_pct_s=2.0,
-        )
-        for i in range(agents)
-    )
-    return Mission(
-        name=name,
-        source=Path(f"{name}.yaml"),
-        map=grid,
-        charger=grid.charger,
-        cell_size_m=1.0,
-        origin=Origin(),
-        fleet=fleet,
-        planner=PlannerSpec(reserve_pct=RESERVE_PCT),
-    )
 
 
 def _run_case(case: PlannerCase, out: Connection) -> None:

@@ -39,9 +39,9 @@ from gcs.bench_cli import (
     strategy_fields,
     write_json,
 )
-from gcs.bench_perf import case_mission
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
+from gcs.generated_missions import case_mission
 from gcs.simulate import SimOptions, planner_settings, simulate
 from sitl_mock import mapgen
 

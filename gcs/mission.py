@@ -60,6 +60,27 @@ class Sensing(StrEnum):
     MAP = "map"
 
 
+class Steering(StrEnum):
+    """How a rover turns: in place on its tracks or wheels (skid), or round a turning
+    circle (car). The ground station allows for its turns; the mock drives like it."""
+
+    SKID = "skid"
+    CAR = "car"
+
+
+class Charging(StrEnum):
+    """How the autopilot learns that its battery was charged on the pad."""
+
+    #: Its battery telemetry rises by itself (a smart battery; the mock's self-charging pad).
+    TELEMETRY = "telemetry"
+    #: It does not (ArduPilot's analog monitor counts consumed mAh): the ground station
+    #: says so with MAV_CMD_BATTERY_RESET when the charge is done.
+    RESET = "reset"
+    #: Wait on the telemetry; if it has not risen by the time the charge should be done,
+    #: reset.
+    AUTO = "auto"
+
+
 class PathPlanner(StrEnum):
     GRID = "grid"
     PRM = "prm"
@@ -84,6 +105,8 @@ class VehicleDefaults:
     battery_capacity_mah: float = 5000.0
     speed_m_s: float = 2.0
     charge_rate_pct_s: float = 1.0
+    steering: Steering = Steering.SKID
+    charging: Charging = Charging.AUTO
 
 
 @dataclass(frozen=True)
@@ -96,6 +119,10 @@ class VehicleSpec:
     battery_capacity_mah: float
     speed_m_s: float
     charge_rate_pct_s: float
+    #: How a rover turns (copters ignore it).
+    steering: Steering = Steering.SKID
+    #: How the autopilot learns its charge on the pad.
+    charging: Charging = Charging.AUTO
 
 
 @dataclass(frozen=True)
@@ -166,6 +193,8 @@ _DEFAULT_KEYS = (
     "battery_capacity_mah",
     "speed_m_s",
     "charge_rate_pct_s",
+    "steering",
+    "charging",
 )
 _VEHICLE_KEYS = ("sysid", "connection", *_DEFAULT_KEYS)
 _PLANNER_KEYS = (
@@ -324,6 +353,8 @@ class _Loader:
             "charge_rate_pct_s": self.number(
                 data, "charge_rate_pct_s", where, base.charge_rate_pct_s, above=0.0
             ),
+            "steering": self.choice(data, "steering", where, Steering, base.steering),
+            "charging": self.choice(data, "charging", where, Charging, base.charging),
         }
 
     def fleet(self, value: Any) -> tuple[tuple[VehicleSpec, ...], VehicleDefaults]:

@@ -23,9 +23,10 @@ import sys
 from collections.abc import Sequence
 
 from gcs.errors import EXIT_BAD_INPUT, EXIT_OK
-from gcs.mission import Mission, MissionError, Sensing, load_mission
+from gcs.mission import Charging, Mission, MissionError, Sensing, VehicleSpec, load_mission
 from sitl_mock.battery import BatterySettings
 from sitl_mock.connection import ConnectionStringError, mirror
+from sitl_mock.drive import DriveSettings, Steering
 from sitl_mock.endpoint import LinkSettings
 from sitl_mock.failsafe import FailsafeAction, GcsFailsafe
 from sitl_mock.fleet import MockFleet, MockVehicleConfig
@@ -43,10 +44,23 @@ TCP_PORT_STEP = 10
 FLEET_GCS_FAILSAFE = GcsFailsafe(FailsafeAction.HOLD)
 
 
+#: Seconds of vehicle time until a mock vehicle's position estimate (ArduPilot SITL: about
+#: 40 s; short so that a rehearsal starts at once, but long enough that the ground
+#: station's wait for it is always exercised).
+STARTUP_DELAY_S = 2.0
+
+
+def drive_settings(spec: VehicleSpec) -> DriveSettings | None:
+    """How the mock drives a rover of the mission: as ArduPilot Rover with that steering."""
+    if spec.type.value != "rover":
+        return None
+    return DriveSettings(steering=Steering(spec.steering.value))
+
+
 def mock_fleet_configs(
     mission: Mission,
     tcp_base_port: int | None = None,
-    startup_delay_s: float = 0.0,
+    startup_delay_s: float = STARTUP_DELAY_S,
     keys: KeyFile | None = None,
     *,
     gcs_failsafe: GcsFailsafe = FLEET_GCS_FAILSAFE,
@@ -69,6 +83,7 @@ def mock_fleet_configs(
                     start_cell=mission.charger,
                     range_sensing=spec.sensing is Sensing.RANGE,
                     gcs_failsafe=gcs_failsafe,
+                    drive=drive_settings(spec),
                 ),
                 link=LinkSettings(
                     connection, signing_key=None if keys is None else keys.keys.get(spec.sysid)
@@ -77,6 +92,8 @@ def mock_fleet_configs(
                     capacity_mah=spec.battery_capacity_mah,
                     energy_per_m_pct=spec.energy_per_m_pct,
                     charge_rate_pct_s=spec.charge_rate_pct_s,
+                    # A smart battery reports its own charge; ArduPilot's monitor does not.
+                    pad_charging=spec.charging is Charging.TELEMETRY,
                 ),
             )
         )
@@ -103,9 +120,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--startup-delay",
         type=float,
-        default=0.0,
+        default=STARTUP_DELAY_S,
         metavar="S",
-        help="seconds after start during which arming and uploads are refused (ArduPilot: ~24)",
+        help="seconds of vehicle time until each vehicle's position estimate: before it, it "
+        "reports latitude and longitude 0, 0 and no GPS fix, and refuses arming, modes and "
+        f"uploads (ArduPilot SITL: about 40; default {STARTUP_DELAY_S:g})",
     )
     parser.add_argument(
         "--gcs-failsafe",

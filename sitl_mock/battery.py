@@ -8,7 +8,12 @@ consumed mAh (as ArduPilot reports them), so voltage is only a plausible
 
 Energy use follows the mission file: ``energy_per_m_pct`` percent per metre
 moved, plus (for copters) ``hover_drain_pct_s`` percent per second airborne.
-Charging happens only when disarmed on a charging pad. Noise and sudden sags
+As on ArduPilot's analog battery monitor (BATT_MONITOR 4), the remaining
+charge is counted down from the charge consumed and never rises by itself:
+a charge on the pad shows only once the ground station says so with
+MAV_CMD_BATTERY_RESET (``reset``), as after a battery swap. With
+``pad_charging`` the pack instead charges itself while disarmed on a pad, as
+a smart battery that reports its own state would. Noise and sudden sags
 come from a seeded random source so runs repeat exactly.
 """
 
@@ -65,6 +70,9 @@ class BatterySettings:
     hover_drain_pct_s: float = 0.05
     charge_rate_pct_s: float = 1.0
     start_pct: float = 100.0
+    #: Charges itself while disarmed on a pad (a smart battery); False: only a
+    #: MAV_CMD_BATTERY_RESET raises the remaining charge (ArduPilot's default monitor).
+    pad_charging: bool = False
     cells: int = 4
     #: Voltage drop per amp drawn. 0 by default: mission energy figures can imply currents
     #: far beyond a real pack's, and ArduPilot's simulated voltage hardly moves either.
@@ -127,7 +135,7 @@ class Battery:
             drain += dt_s * self.settings.hover_drain_pct_s
         drain = self._noisy(drain)
         gain = 0.0
-        self.charging = can_charge and self.remaining_pct < 100.0
+        self.charging = can_charge and self.settings.pad_charging and self.remaining_pct < 100.0
         if self.charging:
             gain = min(dt_s * self.settings.charge_rate_pct_s, 100.0 - self.remaining_pct)
         sag = 0.0
@@ -136,6 +144,12 @@ class Battery:
         self.remaining_pct = min(100.0, max(0.0, self.remaining_pct - drain - sag + gain))
         self.current_a = self._pct_s_to_amps((drain - gain) / dt_s)
         return sag
+
+    def reset(self, remaining_pct: float) -> None:
+        """MAV_CMD_BATTERY_RESET: the pack is now at ``remaining_pct`` (0-100), as after
+        a swap; the charge consumed is counted from there."""
+        if not self.empty:
+            self.remaining_pct = min(100.0, max(0.0, remaining_pct))
 
     @property
     def consumed_mah(self) -> float:

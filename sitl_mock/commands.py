@@ -163,6 +163,20 @@ def _request_message(host: CommandHost, cmd: Command) -> Outcome:
     return Outcome(mavlink.MAV_RESULT_ACCEPTED, messages)
 
 
+def _set_reverse(host: CommandHost, cmd: Command) -> Outcome:
+    host.vehicle.set_reverse(cmd.p(1) == 1.0)
+    return ACCEPTED
+
+
+def _battery_reset(host: CommandHost, cmd: Command) -> Outcome:
+    """param1: mask of batteries (bit 0: the only one), param2: percent remaining."""
+    percent = cmd.p(2)
+    if not cmd.whole(1) & 1 or not math.isfinite(percent):
+        return Outcome(mavlink.MAV_RESULT_FAILED)
+    host.vehicle.battery.reset(percent)
+    return ACCEPTED
+
+
 def _autopilot_capabilities(host: CommandHost, cmd: Command) -> Outcome:
     return Outcome(
         mavlink.MAV_RESULT_ACCEPTED, host.build(mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION) or []
@@ -183,6 +197,8 @@ HANDLERS: dict[int, Handler] = {
     mavlink.MAV_CMD_GET_MESSAGE_INTERVAL: _get_message_interval,
     mavlink.MAV_CMD_REQUEST_MESSAGE: _request_message,
     mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: _autopilot_capabilities,
+    mavlink.MAV_CMD_BATTERY_RESET: _battery_reset,
+    mavlink.MAV_CMD_DO_SET_REVERSE: _set_reverse,
 }
 
 

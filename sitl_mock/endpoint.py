@@ -23,7 +23,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sitl_mock import commands, telemetry
+from sitl_mock import commands, parameters, telemetry
 from sitl_mock.connection import Endpoint, parse_mock_side
 from sitl_mock.events import (
     ItemReached,
@@ -122,6 +122,9 @@ class VehicleEndpoint:
             "SET_POSITION_TARGET_GLOBAL_INT": self._on_position_target,
             "TIMESYNC": self._on_timesync,
             "HEARTBEAT": self._on_heartbeat,
+            "PARAM_REQUEST_READ": self._on_parameters,
+            "PARAM_REQUEST_LIST": self._on_parameters,
+            "PARAM_SET": self._on_parameters,
             **self.mission.handlers(),
         }
         self.silent = False
@@ -398,6 +401,10 @@ class VehicleEndpoint:
         except CommandRefused as refusal:
             log.debug("vehicle %d ignored a position target: %s", self.vehicle.id, refusal.text)
 
+    def _on_parameters(self, peer: Peer, msg: Any) -> None:
+        for reply in parameters.answer(self._encoder, self.vehicle, msg):
+            self._send_to(peer, reply)
+
     def _on_heartbeat(self, peer: Peer, msg: Any) -> None:
         """A ground station's heartbeat keeps the vehicle's GCS failsafe away."""
         if msg.type == mavlink.MAV_TYPE_GCS:
@@ -410,7 +417,7 @@ class VehicleEndpoint:
 
 
 def _refusal_severity(text: str) -> Severity:
-    return Severity.CRITICAL if text.startswith("PreArm") else Severity.WARNING
+    return Severity.CRITICAL if text.startswith(("PreArm", "Arm:")) else Severity.WARNING
 
 
 def _reset_parser(codec: mavlink.MAVLink) -> None:

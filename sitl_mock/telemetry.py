@@ -94,7 +94,7 @@ def heartbeat(codec: mavlink.MAVLink, v: Vehicle) -> list[Message]:
 
 
 def global_position_int(codec: mavlink.MAVLink, v: Vehicle) -> list[Message]:
-    lat, lon = v.lat_lon_deg
+    lat, lon = v.reported_lat_lon_deg
     vn, ve, vd = v.velocity_ned_m_s
     return [
         codec.global_position_int_encode(
@@ -163,7 +163,7 @@ def battery_status(codec: mavlink.MAVLink, v: Vehicle) -> list[Message]:
 
 
 def gps_raw_int(codec: mavlink.MAVLink, v: Vehicle) -> list[Message]:
-    lat, lon = v.lat_lon_deg
+    lat, lon = v.reported_lat_lon_deg
     vn, ve, _ = v.velocity_ned_m_s
     fix = mavlink.GPS_FIX_TYPE_3D_FIX if v.ready else mavlink.GPS_FIX_TYPE_NO_FIX
     return [
@@ -200,6 +200,9 @@ def mission_current(codec: mavlink.MAVLink, v: Vehicle) -> list[Message]:
 
 
 def home_position(codec: mavlink.MAVLink, v: Vehicle) -> list[Message]:
+    """Only once the position estimate uses GPS (ArduPilot sets home then)."""
+    if not v.ready:
+        return []
     lat, lon = v.world.geo.local_to_geo(*v.home)
     return [
         codec.home_position_encode(
@@ -214,6 +217,44 @@ def home_position(codec: mavlink.MAVLink, v: Vehicle) -> list[Message]:
             0.0,
             0.0,
             int(v.elapsed_s * 1e6),
+        )
+    ]
+
+
+def position_target_global_int(codec: mavlink.MAVLink, v: Vehicle) -> list[Message]:
+    """The guided target the vehicle steers to, as ArduPilot reports it in GUIDED (kept
+    after it is reached, until the mode changes); nothing without one."""
+    target = v.guided_target
+    if target is None or v.behaviour is not Behaviour.GUIDED:
+        return []
+    lat, lon = v.world.geo.local_to_geo(*target)
+    ignore = (
+        mavlink.POSITION_TARGET_TYPEMASK_VX_IGNORE
+        | mavlink.POSITION_TARGET_TYPEMASK_VY_IGNORE
+        | mavlink.POSITION_TARGET_TYPEMASK_VZ_IGNORE
+        | mavlink.POSITION_TARGET_TYPEMASK_AX_IGNORE
+        | mavlink.POSITION_TARGET_TYPEMASK_AY_IGNORE
+        | mavlink.POSITION_TARGET_TYPEMASK_AZ_IGNORE
+        | mavlink.POSITION_TARGET_TYPEMASK_YAW_IGNORE
+        | mavlink.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE
+    )
+    alt = v.world.geo.alt_m + (v.guided_alt_m or 0.0)
+    return [
+        codec.position_target_global_int_encode(
+            _boot_ms(v),
+            mavlink.MAV_FRAME_GLOBAL,
+            ignore,
+            round(lat * 1e7),
+            round(lon * 1e7),
+            alt,
+            0,
+            0,
+            0,
+            0,
+            0,
+            0,
+            0,
+            0,
         )
     ]
 
@@ -297,6 +338,7 @@ BUILDERS: dict[int, Builder] = {
     mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION: autopilot_version,
     mavlink.MAVLINK_MSG_ID_DISTANCE_SENSOR: distance_sensors,
     mavlink.MAVLINK_MSG_ID_OBSTACLE_DISTANCE: obstacle_distance,
+    mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: position_target_global_int,
 }
 
 #: Default stream intervals (simulated seconds); messages not listed are sent on request only.
@@ -311,4 +353,5 @@ DEFAULT_INTERVALS_S: dict[int, float] = {
     mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 1.0,
     mavlink.MAVLINK_MSG_ID_DISTANCE_SENSOR: 0.5,
     mavlink.MAVLINK_MSG_ID_OBSTACLE_DISTANCE: 0.5,
+    mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: 1.0,
 }

@@ -26,6 +26,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from planner.grid import Cell
 from sitl_mock.battery import Battery, BatterySettings, ChargeState
+from sitl_mock.drive import Drive, DriveSettings
 from sitl_mock.events import (
     ItemReached,
     MissionCurrentChanged,
@@ -64,7 +65,9 @@ class VehicleSettings:
     climb_rate_m_s: float = 2.5
     land_rate_m_s: float = 1.0
     takeoff_alt_m: float = 5.0
-    #: Seconds after boot during which arming, AUTO/GUIDED/RTL and mission uploads are refused.
+    #: Seconds after boot until the position estimate uses GPS (ArduPilot: about 10-40 s).
+    #: Until then the vehicle reports latitude and longitude 0, 0, no GPS fix and no home,
+    #: and refuses arming ("Arm: Need Position Estimate"), AUTO/GUIDED/RTL and uploads.
     startup_delay_s: float = 0.0
     #: ArduPilot Copter disarms when left armed on the ground this long (None: never).
     copter_auto_disarm_s: float | None = 10.0
@@ -77,6 +80,10 @@ class VehicleSettings:
     range_max_m: float = 10.0
     #: What the vehicle does when its ground station falls silent (default: nothing).
     gcs_failsafe: GcsFailsafe = field(default_factory=GcsFailsafe)
+    #: A rover that drives as ArduPilot Rover does (``sitl_mock.drive``: turns, WP_RADIUS,
+    #: braking, coasting); None drives in straight lines and stops dead on every target.
+    #: Copters always fly straight to their targets (ArduPilot Copter reaches them).
+    drive: DriveSettings | None = None
 
     def __post_init__(self) -> None:
         if self.speed_m_s <= 0:
@@ -133,12 +140,19 @@ class Vehicle:
         self.mission_seq = 0
         self.mission_state = mavlink.MISSION_STATE_NO_MISSION
         self._goal: Goal | None = None
+        #: The last GUIDED position target, kept until the mode changes (reported in
+        #: POSITION_TARGET_GLOBAL_INT, as ArduPilot does); north, east in metres.
+        self.guided_target: tuple[float, float] | None = None
+        self.guided_alt_m: float | None = None
         self._item_hold_s = 0.0
         self._refused_goal: Goal | None = None
         self._wait_s = 0.0
         self._ground_idle_s = 0.0
         self._failsafe_level = 0
         self._gcs = GcsWatch(settings.gcs_failsafe)
+        self.drive: Drive | None = None
+        if settings.drive is not None and not self.profile.flies:
+            self.drive = Drive(settings.drive)
         self._listeners: list[Callable[[VehicleEvent], None]] = []
 
     # ------------------------------------------------------------------ observers
@@ -167,6 +181,11 @@ class Vehicle:
     def ready(self) -> bool:
         """Past the start-up delay (GPS fix, pre-arm checks)."""
         return self.elapsed_s >= self.settings.startup_delay_s
+
+    @property
+    def reported_lat_lon_deg(self) -> tuple[float, float]:
+        """What the vehicle says of its position: 0, 0 until its position estimate."""
+        return self.lat_lon_deg if self.ready else (0.0, 0.0)
 
     @property
     def cell(self) -> Cell:
@@ -203,7 +222,7 @@ class Vehicle:
         if self.armed:
             return
         if not force and not self.ready:
-            raise CommandRefused("PreArm: AHRS: waiting for home")
+            raise CommandRefused("Arm: Need Position Estimate")
         if self.mode in self.profile.unarmable or (
             self.profile.flies and self.behaviour is Behaviour.AUTO and not self._at_takeoff_item()
         ):
@@ -231,12 +250,20 @@ class Vehicle:
             raise CommandRefused("Mode change to AUTO failed: no mission")
         self._clear_motion()
         self.mode = mode
+        self.guided_target = None
+        if self.drive is not None:
+            # GUIDED brakes to a stop under control; HOLD and MANUAL let the rover roll.
+            if behaviour is Behaviour.GUIDED:
+                self.drive.leg = None
+                self.drive.stop()
+            else:
+                self.drive.release()
         if behaviour is Behaviour.AUTO:
             if self.mission_seq < 1 or self.mission_state == mavlink.MISSION_STATE_COMPLETE:
                 self._set_seq(1)
             self._start_item()
         elif behaviour is Behaviour.RTL:
-            self._goal = Goal(*self.home, land=self.profile.flies)
+            self._aim(Goal(*self.home, land=self.profile.flies))
         elif behaviour is Behaviour.LAND:
             self._goal = Goal(self.north_m, self.east_m, land=True)
 
@@ -247,7 +274,9 @@ class Vehicle:
         if self.profile.flies and not self.airborne:
             raise CommandRefused("Position target ignored: not flying")
         self._clear_motion()
-        self._goal = Goal(north_m, east_m, alt_m if alt_m is not None and alt_m > 0 else None)
+        self.guided_target = (north_m, east_m)
+        self.guided_alt_m = alt_m
+        self._aim(Goal(north_m, east_m, alt_m if alt_m is not None and alt_m > 0 else None))
 
     def takeoff(self, alt_m: float) -> None:
         if not self.profile.flies:
@@ -269,6 +298,12 @@ class Vehicle:
 
     def return_to_launch(self) -> None:
         self.set_mode(self.profile.mode_for(Behaviour.RTL))
+
+    def set_reverse(self, backwards: bool) -> None:
+        """MAV_CMD_DO_SET_REVERSE: a rover drives backwards to its targets (any mode)."""
+        if self.drive is None:
+            raise CommandRefused("Reverse not supported", mavlink.MAV_RESULT_UNSUPPORTED)
+        self.drive.reversed = backwards
 
     # ------------------------------------------------------------------ GCS failsafe
 
@@ -373,7 +408,7 @@ class Vehicle:
             item = self.mission[self.mission_seq]
             goal = self._goal_of(item)
             if goal is not None:
-                self._goal = goal
+                self._aim(goal, onward=True)
                 is_waypoint = item.command == mavlink.MAV_CMD_NAV_WAYPOINT
                 self._item_hold_s = item.param1 if is_waypoint else 0.0
                 return
@@ -405,6 +440,8 @@ class Vehicle:
 
     def _mission_finished(self, announce: bool) -> None:
         self._goal = None
+        if self.drive is not None:
+            self.drive.stop()
         if announce:
             self.mission_state = mavlink.MISSION_STATE_COMPLETE
             self._say("Mission Complete")
@@ -490,8 +527,24 @@ class Vehicle:
         self._goal = None
         self._refused_goal = None
         self._wait_s = 0.0
+        self._item_hold_s = 0.0
+
+    def _aim(self, goal: Goal, onward: bool = False) -> None:
+        """Head for ``goal``; a driving rover starts a new track there (``onward``: the
+        next leg of a mission, running on from the last waypoint unless it stopped)."""
+        self._goal = goal
+        drive = self.drive
+        if drive is None:
+            return
+        to = (goal.north_m, goal.east_m)
+        if onward and drive.leg is not None and not drive.braking:
+            drive.then(to)
+        else:
+            drive.go(self.north_m, self.east_m, self.heading_deg, to)
 
     def _move(self, dt_s: float) -> float:
+        if self.drive is not None:
+            return self._drive(dt_s)
         goal = self.current_goal
         if goal is None:
             return 0.0
@@ -504,6 +557,77 @@ class Vehicle:
             moved += self._move_horizontally(goal, self.speed_m_s * dt_s, dt_s)
         if self._reached(goal):
             self._on_goal_reached(goal, dt_s)
+        return moved
+
+    def _drive(self, dt_s: float) -> float:
+        """One step of a rover driven as ArduPilot drives (``sitl_mock.drive``)."""
+        drive = self.drive
+        assert drive is not None
+        leg = drive.leg
+        if self._item_hold_s > 0 and leg is not None and leg.reached and drive.stopped:
+            # A mission waypoint's hold time, counted once the rover has stopped.
+            self._item_hold_s -= dt_s
+            if self._item_hold_s <= 0:
+                self._item_reached()
+        goal = self._goal
+        heading, travel, metres = drive.step(
+            self.north_m, self.east_m, self.heading_deg, self.speed_m_s, dt_s
+        )
+        self.heading_deg = heading
+        moved = self._advance(travel, metres, dt_s) if metres > 0 else 0.0
+        if (
+            goal is not None
+            and self._refused_goal is None
+            and drive.check_reached(self.north_m, self.east_m)
+        ):
+            self._on_leg_reached(goal)
+        return moved
+
+    def _on_leg_reached(self, goal: Goal) -> None:
+        drive = self.drive
+        assert drive is not None
+        behaviour = self.behaviour
+        if behaviour is Behaviour.AUTO:
+            if self._item_hold_s > 0:
+                drive.stop()  # stop, wait the hold time (``_drive``), then go on
+                return
+            self._item_reached()
+            return
+        drive.stop()
+        if behaviour is Behaviour.GUIDED:
+            self._emit(ItemReached(0))  # ArduPilot Rover: MISSION_ITEM_REACHED seq 0
+        elif behaviour is Behaviour.RTL:
+            self._say("Reached destination")
+
+    def _advance(self, bearing_deg: float, metres: float, dt_s: float) -> float:
+        """Drive ``metres`` along ``bearing_deg``, cell by cell; a wall or a vehicle in
+        the way stops the rover at the edge of its cell."""
+        h = math.radians(bearing_deg)
+        un, ue = math.cos(h), math.sin(h)
+        moved = 0.0
+        for _ in range(10_000):
+            if metres <= _EPS_M:
+                break
+            exit_m, ahead = self._cell_exit(un, ue)
+            if metres < exit_m:
+                self._shift(un, ue, metres)
+                return moved + metres
+            blocker = next(
+                (b for b in (self.world.blocker(self.id, c) for c in ahead) if b is not None),
+                None,
+            )
+            if blocker is not None:
+                step = max(0.0, exit_m - 1e-6)
+                self._shift(un, ue, step)
+                assert self.drive is not None
+                self.drive.speed_m_s = 0.0
+                self._blocked(blocker, dt_s)
+                return moved + step
+            self._shift(un, ue, exit_m)
+            moved += exit_m
+            metres -= exit_m
+            self.world.move(self.id, ahead[-1])
+            self._wait_s = 0.0
         return moved
 
     def _move_vertically(self, goal: Goal, horizontal_left_m: float, dt_s: float) -> float:
@@ -616,6 +740,10 @@ class Vehicle:
                 return
         self._wait_s = 0.0
         self._say(f"Move refused: {blocker.describe()}; stopping", Severity.WARNING)
+        if self.drive is not None:
+            self.drive.halt()  # stopped at the edge of its cell, where it stands
+            self._refused_goal = Goal(self.north_m, self.east_m)
+            return
         centre = self.world.geo.cell_centre_local(self.cell)
         self._refused_goal = Goal(centre[0], centre[1])
         if self.behaviour is Behaviour.AUTO:

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from gcs.bench_perf import case_mission
+from gcs.generated_missions import case_mission
 from gcs.simulate import SimOptions, planner_settings, simulate
 from planner.coordinator import _GIVEN_WAY_AFTER, ActionKind, AgentMode, Coordinator, PlannerEvent
 from planner.grid import Cell, CellState

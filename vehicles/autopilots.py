@@ -27,6 +27,14 @@ _CUSTOM_MODE_ENABLED = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
 
 
 @dataclass(frozen=True)
+class Param:
+    """A parameter and the factor that turns its value into SI units."""
+
+    name: str
+    scale: float = 1.0
+
+
+@dataclass(frozen=True)
 class SetModeParams:
     """param1..param3 of MAV_CMD_DO_SET_MODE."""
 
@@ -52,6 +60,10 @@ class AutopilotFlavour(Protocol):
 
     def flight_mode(self, kind: VehicleKind, custom_mode: int) -> FlightMode | None:
         """The ``FlightMode`` a HEARTBEAT custom mode stands for, if any."""
+        ...
+
+    def limit_params(self, kind: VehicleKind) -> dict[str, Param]:
+        """The parameters that say how this vehicle moves (``vehicles.driving``)."""
         ...
 
 
@@ -82,6 +94,9 @@ class ArduPilotFlavour:
             if int(value) == custom_mode:
                 return mode
         return None
+
+    def limit_params(self, kind: VehicleKind) -> dict[str, Param]:
+        return _ARDUPILOT_LIMIT_PARAMS.get(kind, {})
 
 
 @dataclass(frozen=True)
@@ -115,6 +130,9 @@ class Px4Flavour:
         key = (main, sub if main == Px4MainMode.AUTO else 0)
         return next((mode for mode, value in _PX4_MODES.items() if value == key), None)
 
+    def limit_params(self, kind: VehicleKind) -> dict[str, Param]:
+        return {"acceptance_radius_m": Param("NAV_ACC_RAD")}
+
 
 _ARDUPILOT_MODES: dict[VehicleKind, dict[FlightMode, IntEnum]] = {
     VehicleKind.ROVER: {
@@ -146,6 +164,17 @@ _PX4_MODES: dict[FlightMode, tuple[int, int]] = {
     FlightMode.RTL: (Px4MainMode.AUTO, Px4AutoSubMode.RTL),
     FlightMode.LAND: (Px4MainMode.AUTO, Px4AutoSubMode.LAND),
     FlightMode.TAKEOFF: (Px4MainMode.AUTO, Px4AutoSubMode.TAKEOFF),
+}
+
+#: ArduPilot Rover's own figures (``vehicles.driving.DrivingLimits`` fields); Copter
+#: reaches guided targets precisely and needs none.
+_ARDUPILOT_LIMIT_PARAMS: dict[VehicleKind, dict[str, Param]] = {
+    VehicleKind.ROVER: {
+        "acceptance_radius_m": Param("WP_RADIUS"),
+        "speed_m_s": Param("WP_SPEED"),
+        "pivot_rate_deg_s": Param("WP_PIVOT_RATE"),
+        "turn_radius_m": Param("TURN_RADIUS"),
+    },
 }
 
 ARDUPILOT = ArduPilotFlavour()

@@ -40,6 +40,7 @@ from vehicles.mission_items import MISSION, MissionItem
 from vehicles.mission_protocol import MissionClient, MissionSettings, TransferReport
 from vehicles.models import VehicleProfile
 from vehicles.modes import FlightMode
+from vehicles.parameters import ParameterClient, ParameterSettings
 from vehicles.router import Message, MessageRouter
 from vehicles.signing import SigningConfig
 from vehicles.telemetry import TelemetryCache, Topic, TopicStreams, VehicleStatus
@@ -122,6 +123,7 @@ class LinkSettings:
     not_ready_retry_s: float = 1.0
     commands: CommandSettings = field(default_factory=CommandSettings)
     mission: MissionSettings = field(default_factory=MissionSettings)
+    parameters: ParameterSettings = field(default_factory=ParameterSettings)
 
 
 class VehicleLink:
@@ -156,6 +158,9 @@ class VehicleLink:
         )
         self.missions = MissionClient(
             self._send, self.router, self._target, self.settings.mission, on_wait=self._tell_wait
+        )
+        self.parameters = ParameterClient(
+            self._send, self.router, self._target, self.settings.parameters
         )
         self._up = asyncio.Event()
         #: Set by every sign of life: a heartbeat, or once up any message of the vehicle.
@@ -517,6 +522,10 @@ class VehicleLink:
 
     async def set_speed(self, speed_m_s: float) -> CommandAck:
         return await self.command_long(mavlink.MAV_CMD_DO_CHANGE_SPEED, 1, speed_m_s, -1)
+
+    async def read_param(self, name: str) -> float:
+        """A parameter's value; ``ParameterUnavailable`` if the vehicle does not answer."""
+        return await self.parameters.read(name)
 
     # -- mission ------------------------------------------------------------------------
 

@@ -35,6 +35,12 @@ class Topic(StrEnum):
     OBSTACLES = "obstacles"
     MISSION = "mission"
     STATUSTEXT = "statustext"
+    #: ``GpsFix``: GPS_RAW_INT.
+    GPS = "gps"
+    #: ``Home``: HOME_POSITION (set once the position estimate uses GPS).
+    HOME = "home"
+    #: ``GuidedTarget``: where the vehicle steers to (POSITION_TARGET_GLOBAL_INT).
+    TARGET = "target"
     #: ``LinkEvent`` values: the vehicle's heartbeat appeared or was lost.
     LINK = "link"
 
@@ -121,6 +127,34 @@ class MissionProgress:
 
 
 @dataclass(frozen=True)
+class GpsFix:
+    """GPS_RAW_INT: ``fix_type`` is GPS_FIX_TYPE (3 and up: a 3D fix)."""
+
+    fix_type: int
+    satellites: int | None
+
+    @property
+    def has_3d_fix(self) -> bool:
+        return self.fix_type >= mavlink.GPS_FIX_TYPE_3D_FIX
+
+
+@dataclass(frozen=True)
+class Home:
+    lat_deg: float
+    lon_deg: float
+    alt_msl_m: float
+
+
+@dataclass(frozen=True)
+class GuidedTarget:
+    """Where the vehicle reports it is steering to; ``time_boot_ms`` of the report."""
+
+    lat_deg: float
+    lon_deg: float
+    time_boot_ms: int
+
+
+@dataclass(frozen=True)
 class StatusText:
     severity: int
     text: str
@@ -147,6 +181,9 @@ class TelemetryCache:
     obstacles: ObstacleDistances | None = None
     mission: MissionProgress = field(default_factory=MissionProgress)
     statustext: StatusText | None = None
+    gps: GpsFix | None = None
+    home: Home | None = None
+    target: GuidedTarget | None = None
 
     def update(self, msg: Message) -> tuple[Topic, Any] | None:
         handler = _HANDLERS.get(msg.get_type())
@@ -268,6 +305,19 @@ class TelemetryCache:
         self.statustext = StatusText(severity=msg.severity, text=text.rstrip("\x00"))
         return Topic.STATUSTEXT, self.statustext
 
+    def _on_gps_raw_int(self, msg: Message) -> tuple[Topic, Any]:
+        satellites = _none_if(msg.satellites_visible, 255)
+        self.gps = GpsFix(int(msg.fix_type), None if satellites is None else int(satellites))
+        return Topic.GPS, self.gps
+
+    def _on_home_position(self, msg: Message) -> tuple[Topic, Any]:
+        self.home = Home(msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1000.0)
+        return Topic.HOME, self.home
+
+    def _on_position_target_global_int(self, msg: Message) -> tuple[Topic, Any]:
+        self.target = GuidedTarget(msg.lat_int / 1e7, msg.lon_int / 1e7, msg.time_boot_ms)
+        return Topic.TARGET, self.target
+
 
 _HANDLERS: dict[str, Callable[[TelemetryCache, Message], tuple[Topic, Any] | None]] = {
     "HEARTBEAT": TelemetryCache._on_heartbeat,
@@ -279,6 +329,9 @@ _HANDLERS: dict[str, Callable[[TelemetryCache, Message], tuple[Topic, Any] | Non
     "MISSION_CURRENT": TelemetryCache._on_mission_current,
     "MISSION_ITEM_REACHED": TelemetryCache._on_mission_item_reached,
     "STATUSTEXT": TelemetryCache._on_statustext,
+    "GPS_RAW_INT": TelemetryCache._on_gps_raw_int,
+    "HOME_POSITION": TelemetryCache._on_home_position,
+    "POSITION_TARGET_GLOBAL_INT": TelemetryCache._on_position_target_global_int,
 }
 #: Message types the cache understands.
 TELEMETRY_MESSAGES = frozenset(_HANDLERS)

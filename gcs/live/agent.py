@@ -12,14 +12,17 @@ the others. What an action means for a vehicle:
   the link drops; the ground station still
   observes each waypoint and asks the planner for the next cell, and stops
   the vehicle (back to stepping in GUIDED) if the planner does not grant it.
-* CHARGE: park on the charger (copter lands, rover holds, disarm) and follow
-  the battery telemetry until the planner lets it go.
+* CHARGE: park on the charger (copter lands, rover holds and rolls out, back
+  onto the pad if it rolled off, disarm), then charge (``gcs.live.charging``:
+  on the telemetry, or timed and told to the autopilot) until the planner
+  lets it go.
 * WAIT: wait until another vehicle changes something, or a while.
 
 A vehicle whose heartbeat is lost is held out of planning (its task does not
 decide) until the link is back; if it does not come back within
 ``lost_after_s`` the vehicle is declared lost, its work goes back to the
-others, and the mission carries on.
+others, and the mission carries on. A vehicle given up for any reason is
+put in its safe state (``Pilot.make_safe``) if it can still be heard.
 """
 
 from __future__ import annotations
@@ -30,6 +33,9 @@ import logging
 import math
 from dataclasses import dataclass, field
 
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from gcs.live.charging import ChargeSettings, PadStay
 from gcs.live.energy import EnergyEstimator
 from gcs.live.pilot import Pilot, PilotSettings
 from gcs.live.sensing import (
@@ -72,11 +78,19 @@ class AgentSettings:
     min_auto_cells: int = 3
     #: Failed actions in a row (with the link up) before a vehicle is given up.
     max_failures: int = 6
+    #: Longest wait for a vehicle given up to reach its safe state (mission seconds).
+    safe_state_s: float = 60.0
     pilot: PilotSettings = field(default_factory=PilotSettings)
+    charge: ChargeSettings = field(default_factory=ChargeSettings)
 
 
 class AgentLost(Exception):
     """The vehicle cannot be worked with any more (link gone, or it keeps failing)."""
+
+
+def describe(exc: BaseException) -> str:
+    """What went wrong, never an empty string (``str(TimeoutError())`` is "")."""
+    return str(exc) or type(exc).__name__
 
 
 class Agent:
@@ -105,6 +119,10 @@ class Agent:
         self._lost_reason: str | None = None
         #: The way home failed to upload on this trip: step it instead.
         self._step_home = False
+        #: The stay on the pad under way, if charging.
+        self._pad: PadStay | None = None
+        #: The battery telemetry rose while on the pad (it charges itself).
+        self._pad_risen = False
         self._helpers: list[asyncio.Task[None]] = []
 
     @property
@@ -126,21 +144,42 @@ class Agent:
             asyncio.ensure_future(self._track_battery()),
             asyncio.ensure_future(self._relay_statustext()),
         ]
+        lost: str | None = None
         try:
             await self._work()
         except asyncio.CancelledError:
             if self._lost_reason is None:
                 raise
-            self.planner.mark_lost(self.id, self._lost_reason)
+            lost = self._lost_reason
         except AgentLost as exc:
-            self.planner.mark_lost(self.id, str(exc))
+            lost = str(exc)
         except Exception as exc:  # a bug must not take the fleet down with it
             log.exception("vehicle %d task failed", self.id)
-            self.planner.mark_lost(self.id, f"internal error: {exc!r}")
+            lost = f"internal error: {exc!r}"
+        try:
+            if lost is not None:
+                await self.planner.mark_lost(self.id, lost)
+                await self._make_safe()
         finally:
             for task in self._helpers:
                 task.cancel()
             await asyncio.gather(*self._helpers, return_exceptions=True)
+
+    async def _make_safe(self) -> None:
+        """A vehicle given up is left in its safe state if it can be reached at all (the
+        link may be down for good: then its own failsafe is all there is)."""
+        self.view.phase = Phase.LOST
+        try:
+            async with asyncio.timeout(self.pilot.real_s(self.settings.safe_state_s)):
+                done = await self.pilot.make_safe()
+        except (LinkError, TimeoutError) as exc:
+            heard = "link down" if not self.link.is_up else describe(exc)
+            self._tell(
+                f"could not be put in its safe state ({heard}): left to its own failsafe",
+                Level.ERROR,
+            )
+            return
+        self._tell(f"given up: {done}", Level.WARNING)
 
     async def _work(self) -> None:
         await self.pilot.wait_position(lambda _p: True, self.settings.pilot.sensing_timeout_s)
@@ -150,7 +189,7 @@ class Agent:
         while True:
             await self._link_up()
             if action is None:
-                action = self._decide()
+                action = await self._decide()
             try:
                 if action.kind == ActionKind.WAIT and self.planner.mode(self.id) in (
                     AgentMode.DONE,
@@ -163,20 +202,20 @@ class Agent:
             except (LinkError, TimeoutError) as exc:
                 failures += 1
                 if failures >= self.settings.max_failures:
-                    raise AgentLost(f"failed {failures} times in a row ({exc})") from exc
-                self._tell(f"{action.kind} failed ({exc or type(exc).__name__})", Level.WARNING)
+                    raise AgentLost(f"failed {failures} times in a row ({describe(exc)})") from exc
+                self._tell(f"{action.kind} failed ({describe(exc)})", Level.WARNING)
                 if not self.link.is_up:
                     continue  # the same action again once the link is back
                 with contextlib.suppress(LinkError, TimeoutError):
                     await self._resync()
                     action = None
 
-    def _decide(self) -> Action:
+    async def _decide(self) -> Action:
         battery = self.pilot.battery_pct
         if battery is not None:
-            self.planner.update_battery(self.id, battery)
-        self.planner.set_energy(self.id, self.estimator.estimate_pct_per_m)
-        action = self.planner.decide(self.id)
+            await self.planner.update_battery(self.id, battery)
+        await self.planner.set_energy(self.id, self.estimator.estimate_pct_per_m)
+        action = await self.planner.decide(self.id)
         self.view.mode = str(self.planner.mode(self.id))
         return action
 
@@ -190,8 +229,10 @@ class Agent:
                 and mode in (AgentMode.RETURN, AgentMode.HOMING)
                 and not self._step_home
             ):
-                cells = self._way_home(action.to)
-                if len(cells) >= self.settings.min_auto_cells and self._swept(cells):
+                async with self.planner.reading():
+                    cells = self._way_home(action.to)
+                    swept = self._swept(cells)
+                if len(cells) >= self.settings.min_auto_cells and swept:
                     try:
                         return await self._fly_home(cells)
                     except MissionError as exc:
@@ -201,6 +242,7 @@ class Agent:
                         self._step_home = True
                         await self._resync()
                         return None
+            self._pad = None
             await self._step(action.to)
             return None
         if action.kind == ActionKind.CHARGE:
@@ -301,14 +343,16 @@ class Agent:
     async def _arrive(self, cell: Cell, pos: Position) -> None:
         self.view.phase = Phase.SENSING
         readings = await self._sense(cell, pos)
-        self._observe(cell, pos, readings)
+        await self._observe(cell, pos, readings)
 
-    def _observe(self, cell: Cell, pos: Position, readings: dict[Direction, CellState]) -> None:
+    async def _observe(
+        self, cell: Cell, pos: Position, readings: dict[Direction, CellState]
+    ) -> None:
         battery = self.pilot.battery_pct
         battery = 100.0 if battery is None else battery
         self.view.cell = cell
         self.view.battery_pct = battery
-        self.planner.observe(
+        await self.planner.observe(
             self.id, cell, readings, battery, (pos.lat_deg, pos.lon_deg, pos.heading_deg)
         )
 
@@ -379,6 +423,7 @@ class Agent:
             self._tell(f"flies on home in AUTO ({len(cells)} cells, the route on board)")
         first_seq = route.first_seq
         previous = self.planner.coordinator.cell_of(self.id)
+        heading = None
         for k, cell in enumerate(cells):
             seq = first_seq + k
 
@@ -387,16 +432,27 @@ class Agent:
                 return self.pilot.at(p, cell) or (current is not None and current > seq)
 
             metres = self.pilot.geo.cell_size_m * max(1, manhattan(previous, cell))
+            leg = (cell[0] - previous[0], cell[1] - previous[1])
+            turn = (
+                0.0
+                if heading is None or leg == heading
+                else 180.0
+                if leg == (-heading[0], -heading[1])
+                else 90.0
+            )
+            heading = leg
             pos = await self.pilot.wait_position(
-                reached, self.pilot.move_time_s(metres) + self.settings.pilot.waypoint_hold_s
+                reached,
+                self.pilot.move_time_s(metres, turn) + self.settings.pilot.waypoint_hold_s,
+                f"arrival at waypoint {seq} (cell {cell})",
             )
             previous = cell
             # No fresh ranges here: the vehicle does not stop long enough, and the way
             # home runs over cells already known.
-            self._observe(cell, pos, {})
+            await self._observe(cell, pos, {})
             if k == len(cells) - 1:
                 return None  # home: the mission lands a copter; CHARGE parks it
-            action = self._decide()
+            action = await self._decide()
             if action.kind == ActionKind.MOVE and action.to == cells[k + 1]:
                 continue
             # The planner does not grant the next cell (another vehicle in the way): stop.
@@ -404,30 +460,76 @@ class Agent:
             pos = await self.pilot.stop_here()
             actual = self.pilot.cell_of(pos)
             if actual != cell:
-                self._observe(actual, pos, {})
+                await self._observe(actual, pos, {})
                 return None
             return action
         return None
 
     async def _charge(self) -> None:
+        """Park on the pad, then charge: wait on the battery telemetry, or, where the
+        autopilot cannot see the charge, time it and tell the autopilot when it is done
+        (``gcs.live.charging``); a charge far overdue gives the vehicle up."""
         if self.pilot.armed or self.pilot.airborne():
             self.view.phase = Phase.PARKING
-            await self.pilot.park()
+            await self.pilot.park(self.charger)
         self.view.phase = Phase.CHARGING
-        battery = await self.link.wait_for(
+        clock = self.pilot.clock
+        battery = self.pilot.battery_pct
+        if self._pad is None:
+            start = 0.0 if battery is None else battery
+            self._pad = PadStay(
+                started_s=clock.now(),
+                start_pct=start,
+                target_pct=self.planner.coordinator.settings.resume_pct,
+                rate_pct_s=self.spec.charge_rate_pct_s,
+                how=self.spec.charging,
+            )
+            self._pad_risen = False
+            self._tell(f"charging from {start:.0f} % (about {self._pad.expected_s:.0f} s)")
+        stay = self._pad
+        update = await self.link.wait_for(
             Topic.BATTERY,
             lambda b: b.remaining_pct is not None,
             self.pilot.real_s(self.settings.charge_poll_s),
         )
-        self.planner.update_battery(self.id, battery.remaining_pct)
-        self.planner.record.battery(self.id, self.charger, battery.remaining_pct)
+        pct = update.remaining_pct
+        self._pad_risen |= stay.rises(pct)
+        now = clock.now()
+        self.view.detail = f"{stay.estimate_pct(now):.0f} % by the pad's rate"
+        if stay.needs_reset(now, pct, self._pad_risen):
+            pct = await self._reset_battery(stay.target_pct)
+        elif stay.overdue(now, self.settings.charge) and pct < stay.target_pct - 1.0:
+            raise AgentLost(
+                f"its charge did not complete: {pct:.0f} % after "
+                f"{now - stay.started_s:.0f} s on the pad, {stay.limit_s(self.settings.charge):.0f}"
+                " s allowed"
+            )
+        self.view.detail = ""
+        await self.planner.update_battery(self.id, pct)
+        self.planner.record.battery(self.id, self.charger, pct)
+
+    async def _reset_battery(self, pct: float) -> float:
+        """MAV_CMD_BATTERY_RESET (battery 0 to ``pct``); the telemetry must then show it."""
+        await self.link.command_long(mavlink.MAV_CMD_BATTERY_RESET, 1, pct)
+        try:
+            update = await self.link.wait_for(
+                Topic.BATTERY,
+                lambda b: b.remaining_pct is not None and b.remaining_pct >= pct - 1.0,
+                self.pilot.real_s(self.settings.charge.reset_confirm_s),
+            )
+        except TimeoutError:
+            raise LinkError(
+                f"the battery telemetry does not show the reset to {pct:.0f} %"
+            ) from None
+        self._tell(f"charged: the autopilot was told its battery is at {pct:.0f} %")
+        return float(update.remaining_pct)
 
     async def _wait(self) -> None:
         if self.planner.coordinator.cell_of(self.id) == self.charger and (
             self.pilot.armed or self.pilot.airborne()
         ):
             self.view.phase = Phase.PARKING
-            await self.pilot.park()  # nothing to do: wait on the ground, disarmed
+            await self.pilot.park(self.charger)  # nothing to do: wait on the ground, disarmed
         self.view.phase = Phase.WAITING
         # Decide again at the first change after one move's time (the planner counts its
         # patience in decisions, as if each were an iteration in which others move once),
@@ -447,9 +549,9 @@ class Agent:
     async def _finish(self) -> None:
         if self.planner.mode(self.id) == AgentMode.DONE:
             self.view.phase = Phase.PARKING
-            await self.pilot.park()
-            self.view.phase = Phase.DONE
             cell = self.planner.coordinator.cell_of(self.id)
+            await self.pilot.park(cell)
+            self.view.phase = Phase.DONE
             if cell == self.charger:
                 self._tell("is home, parked and disarmed")
             else:
@@ -479,7 +581,7 @@ async def send_home(agent: Agent, timeout_s: float) -> str:
         cell = pilot.cell_of(pos)
         belief = agent.planner.coordinator.belief
         if cell == agent.charger:
-            await pilot.park()
+            await pilot.park(agent.charger)
             return "parked on the charger"
         if not belief.is_free(cell):
             cell = agent.planner.coordinator.cell_of(agent.id)
@@ -488,19 +590,17 @@ async def send_home(agent: Agent, timeout_s: float) -> str:
             raise LinkError("no known way home")
         cells = [cell, *(belief.cell(i) for i in rest)]
         if pilot.flies and not pilot.airborne(pos):
-            await pilot.park()
-            return "landed where it is"
+            return f"{await pilot.make_safe()} where it is"
         await pilot.start_route(cells, land=True)
         with contextlib.suppress(TimeoutError):
             await pilot.wait_position(
                 lambda p: pilot.at(p, agent.charger) or (pilot.flies and p.alt_rel_m < 0.2),
                 timeout_s,
             )
-            await pilot.park()
+            await pilot.park(agent.charger)
             return "flew home and parked"
         return "flying home in AUTO"
     except (LinkError, TimeoutError) as exc:
         with contextlib.suppress(LinkError, TimeoutError):
-            await pilot.hold()
-            return f"could not send home ({exc}): holding"
-        return f"could not send home or hold ({exc})"
+            return f"could not send home ({describe(exc)}): {await pilot.make_safe()}"
+        return f"could not send home or make safe ({describe(exc)})"

@@ -7,12 +7,18 @@ over real MAVLink on UDP or TCP.
 
 Order of events:
 
-1. open every vehicle's link (a ``udpin`` end must be listening before the
-   vehicles send), then start the mock fleet if asked;
-2. readiness, per vehicle and concurrently: heartbeat, vehicle type, the
-   telemetry we need (position, battery, range readings for ``range``
-   vehicles), on the charger, GUIDED accepted (retried while the autopilot is
-   not ready, as ArduPilot needs after boot);
+0. compile the planner (``gcs.warm_up``; loaded from numba's cache after the
+   first run) before any link opens, so that no first decision stalls a link;
+1. open every vehicle's link, with the mock fleet started in between if asked
+   (a ``udpin`` end listens before its vehicle sends; a ``tcp`` one connects
+   to a vehicle already serving);
+2. readiness, per vehicle and concurrently, each step shown to the operator:
+   heartbeat, vehicle type, the telemetry we need (position, battery, range
+   readings for ``range`` vehicles), a 3D GPS fix and a home position (the
+   position estimate: before it ArduPilot reports 0, 0), then on the charger,
+   GUIDED accepted (retried while the autopilot is not ready, as ArduPilot
+   needs after boot), the vehicle's own driving limits read; the whole wait
+   bounded by ``ready_timeout_s``;
 3. the planner with one agent per vehicle, each with its own energy estimate;
 4. every agent task at once; the mission ends when every vehicle is home
    (or lost), on the time limit, or on an abort (Ctrl-C), after which the
@@ -25,6 +31,7 @@ Order of events:
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import dataclasses
 import logging
 import time
@@ -40,12 +47,13 @@ from gcs.live.pilot import Pilot
 from gcs.live.record import MissionRecord
 from gcs.live.resume import ResumePoint
 from gcs.live.shared import Level, Notify, Phase, SharedPlanner, VehicleView
-from gcs.mission import Mission, Sensing, VehicleSpec
+from gcs.mission import Mission, Sensing, Steering, VehicleSpec
 from gcs.mission_log import MissionLog
 from gcs.percentile import percentile
 from gcs.result import RunResult
 from gcs.simulate import planner_settings, prior_map
 from gcs.sitl_cli import mock_fleet_configs
+from gcs.warm_up import warm_up_planner
 from planner.coordinator import Coordinator
 from planner.settings import AgentSpec
 from sitl_mock.battery import BatterySag
@@ -58,7 +66,7 @@ from vehicles.keyfile import KeyFile
 from vehicles.link import LinkSettings, VehicleLink, rejected_frames
 from vehicles.mission_protocol import MissionSettings
 from vehicles.modes import FlightMode, VehicleKind
-from vehicles.telemetry import Topic
+from vehicles.telemetry import Position, Topic
 
 log = logging.getLogger(__name__)
 
@@ -72,7 +80,9 @@ RATES_HZ: dict[int, float] = {
     mavlink.MAVLINK_MSG_ID_DISTANCE_SENSOR: 1.0,
     mavlink.MAVLINK_MSG_ID_OBSTACLE_DISTANCE: 1.0,
     mavlink.MAVLINK_MSG_ID_ATTITUDE: 0.0,
-    mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: 0.0,
+    # The fix, for readiness; the guided target the vehicle steers to, to see it lost one.
+    mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
+    mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: 2.0,
 }
 
 
@@ -113,6 +123,9 @@ class LiveOptions:
     heartbeat_timeout_s: float = 30.0
     #: Mission seconds to wait for position, battery and range telemetry at the start.
     telemetry_timeout_s: float = 10.0
+    #: Mission seconds a vehicle may take to be ready (GPS fix, position estimate, modes):
+    #: ArduPilot SITL takes about 40 s after boot.
+    ready_timeout_s: float = 180.0
     #: A link is "lost" after this many mission seconds without a heartbeat.
     link_lost_after_s: float = 3.0
     #: Stop (and send everyone home) after this many mission seconds; None: no limit.
@@ -218,23 +231,22 @@ async def run_live(
     run = LiveRun(mission, clock, views)
     if on_start is not None:
         on_start(run)
+    for view in views.values():
+        view.detail = "the planner compiles"
+    # Before any link opens: compiling takes seconds after an install, and no link may
+    # wait on it (numba caches what it compiled, so later runs load it at once).
+    await asyncio.to_thread(warm_up_planner)
     links = run.links
     fleet: MockFleet | None = None
     t0 = clock.now()
     try:
         settings = link_settings(options, clock)
-        for spec in mission.fleet:
-            try:
-                links[spec.sysid] = await VehicleLink.connect(
-                    spec.connection,
-                    target_system=spec.sysid,
-                    settings=settings,
-                    signing=None if options.keys is None else options.keys.signing(spec.sysid),
-                    allow_remote=options.allow_remote,
-                )
-            except LinkError as exc:
-                raise MissionRefused(f"vehicle {spec.sysid}: {exc}", EXIT_BAD_INPUT) from exc
-            _tap(links[spec.sysid], spec.sysid, mission_log, clock, t0)
+        # A ``tcp`` vehicle serves and the ground station dials it: the mock fleet must be
+        # up first; a ``udpin`` end listens, and is opened before its vehicle sends.
+        dialled = [s for s in mission.fleet if _dials(s.connection)]
+        listening = [s for s in mission.fleet if not _dials(s.connection)]
+        for spec in listening:
+            links[spec.sysid] = await _open_link(spec, settings, options, views)
         if options.sim:
             fleet = MockFleet(
                 sim_configs(mission, options.faults, options.keys),
@@ -244,6 +256,10 @@ async def run_live(
                 seed=options.seed,
             )
             await fleet.start()
+        for spec in dialled:
+            links[spec.sysid] = await _open_link(spec, settings, options, views)
+        for spec in mission.fleet:
+            _tap(links[spec.sysid], spec.sysid, mission_log, clock, t0)
         pilots = {
             spec.sysid: Pilot(
                 links[spec.sysid],
@@ -252,6 +268,7 @@ async def run_live(
                 clock,
                 spec.speed_m_s,
                 options.agent.pilot,
+                car=spec.steering == Steering.CAR,
             )
             for spec in mission.fleet
         }
@@ -269,6 +286,34 @@ async def run_live(
             await fleet.stop()
 
 
+def _dials(connection: str) -> bool:
+    """Whether the ground station's side of ``connection`` connects to a server."""
+    return connection.split(":", 1)[0].lower() in ("tcp", "tcpout")
+
+
+async def _open_link(
+    spec: VehicleSpec, settings: LinkSettings, options: LiveOptions, views: dict[int, VehicleView]
+) -> VehicleLink:
+    view = views[spec.sysid]
+
+    def waiting(text: str) -> None:  # the autopilot refused something it is not ready for
+        view.detail = text
+
+    try:
+        link = await VehicleLink.connect(
+            spec.connection,
+            target_system=spec.sysid,
+            settings=settings,
+            signing=None if options.keys is None else options.keys.signing(spec.sysid),
+            allow_remote=options.allow_remote,
+            on_wait=waiting,
+        )
+    except LinkError as exc:
+        raise MissionRefused(f"vehicle {spec.sysid}: {exc}", EXIT_BAD_INPUT) from exc
+    view.detail = "heartbeat"
+    return link
+
+
 def _tap(link: VehicleLink, sysid: int, mission_log: MissionLog, clock: Clock, t0: float) -> None:
     def tap(direction: str, frame: bytes, _msg: object) -> None:
         mission_log.raw(sysid, direction == "out", clock.now() - t0, frame)
@@ -284,8 +329,11 @@ async def _ready(
     options: LiveOptions,
     views: dict[int, VehicleView],
 ) -> None:
-    """Check one vehicle before the start; raise ``MissionRefused`` saying what is wrong."""
+    """Check one vehicle before the start; raise ``MissionRefused`` saying what is wrong.
+    The wait after the heartbeat is bounded by ``ready_timeout_s`` as a whole, and the
+    operator sees what each vehicle is waiting for (``VehicleView.detail``)."""
     who = f"vehicle {spec.sysid} ({spec.connection})"
+    view = views[spec.sysid]
     try:
         status = await link.wait_heartbeat(timeout_s=options.heartbeat_timeout_s)
     except LinkError as exc:
@@ -304,10 +352,34 @@ async def _ready(
             f"(MAV_TYPE {status.type_name})",
             EXIT_BAD_INPUT,
         )
+    try:
+        async with asyncio.timeout(pilot.real_s(options.ready_timeout_s)):
+            await _get_ready(spec, link, pilot, mission, options, view)
+    except TimeoutError:
+        raise MissionRefused(
+            f"{who}: not ready after {options.ready_timeout_s:g} s: still waiting for "
+            f"{view.detail or 'it'}"
+        ) from None
+    view.phase = Phase.READY
+    view.detail = ""
+    view.battery_pct = link.telemetry.battery.remaining_pct
+
+
+async def _get_ready(
+    spec: VehicleSpec,
+    link: VehicleLink,
+    pilot: Pilot,
+    mission: Mission,
+    options: LiveOptions,
+    view: VehicleView,
+) -> None:
+    who = f"vehicle {spec.sysid} ({spec.connection})"
+    view.detail = "telemetry rates"
     await link.request_rates(RATES_HZ)
     wait_s = pilot.real_s(options.telemetry_timeout_s)
+    view.detail = "position and battery telemetry"
     try:
-        pos = await link.wait_for(Topic.POSITION, lambda _p: True, wait_s)
+        await link.wait_for(Topic.POSITION, lambda _p: True, wait_s)
         if link.telemetry.battery.remaining_pct is None:
             await link.wait_for(Topic.BATTERY, lambda b: b.remaining_pct is not None, wait_s)
     except TimeoutError:
@@ -315,6 +387,7 @@ async def _ready(
             f"{who}: no position or battery telemetry within {options.telemetry_timeout_s:g} s"
         ) from None
     if spec.sensing == Sensing.RANGE and not (link.telemetry.ranges or link.telemetry.obstacles):
+        view.detail = "range readings"
         await pilot._request(mavlink.MAVLINK_MSG_ID_DISTANCE_SENSOR)
         try:
             await asyncio.wait_for(_any_range(link), wait_s)
@@ -326,26 +399,58 @@ async def _ready(
                 "as known",
                 EXIT_BAD_INPUT,
             ) from None
+    await _position_estimate(link, pilot, view)
+    pos = await pilot.wait_position(_has_fix, options.telemetry_timeout_s, "position")
     cell = pilot.cell_of(pos)
     if options.resume is not None:
         # Taken over wherever the failsafe left it: on the ground, holding, or on its way home.
         if not mission.map.inside(cell):
             raise MissionRefused(f"{who} is on cell {cell}, outside the mission's map")
-        views[spec.sysid].phase = Phase.READY
-        views[spec.sysid].battery_pct = link.telemetry.battery.remaining_pct
-        return
-    if cell != mission.charger:
-        raise MissionRefused(
-            f"{who} is on cell {cell}, not on the charger {mission.charger}: bring it to the pad"
-        )
-    if status.armed:
-        raise MissionRefused(f"{who} is armed on the pad: disarm it before the start")
-    try:
-        await pilot.set_mode(FlightMode.GUIDED)
-    except LinkError as exc:
-        raise MissionRefused(f"{who}: not ready: {exc}") from exc
-    views[spec.sysid].phase = Phase.READY
-    views[spec.sysid].battery_pct = link.telemetry.battery.remaining_pct
+    else:
+        if cell != mission.charger:
+            raise MissionRefused(
+                f"{who} is on cell {cell}, not on the charger {mission.charger}: "
+                "bring it to the pad"
+            )
+        if link.status is not None and link.status.armed:
+            raise MissionRefused(f"{who} is armed on the pad: disarm it before the start")
+        view.detail = "GUIDED mode"
+        try:
+            await pilot.set_mode(FlightMode.GUIDED)
+        except LinkError as exc:
+            raise MissionRefused(f"{who}: not ready: {exc}") from exc
+    view.detail = "its driving settings"
+    await pilot.learn_limits()
+
+
+#: Mission seconds between requests for the home position while the estimator has none.
+HOME_REQUEST_PERIOD_S = 2.0
+
+
+async def _position_estimate(link: VehicleLink, pilot: Pilot, view: VehicleView) -> None:
+    """Wait for a 3D GPS fix and for the home position (set when the autopilot's estimator
+    uses GPS): until then ArduPilot reports latitude and longitude 0, 0. A vehicle that
+    sends no GPS_RAW_INT at all is judged on its home position alone."""
+    telemetry = link.telemetry
+    while telemetry.home is None or (telemetry.gps is not None and not telemetry.gps.has_3d_fix):
+        gps = telemetry.gps
+        if gps is not None and not gps.has_3d_fix:
+            view.detail = f"GPS fix (fix type {gps.fix_type})"
+            with contextlib.suppress(TimeoutError):
+                await link.wait_for(Topic.GPS, lambda g: g.has_3d_fix, pilot.real_s(5.0))
+            continue
+        view.detail = "position estimate (home position)"
+        with contextlib.suppress(LinkError):
+            await link.command_long(
+                mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_HOME_POSITION
+            )
+        with contextlib.suppress(TimeoutError):
+            await link.wait_for(Topic.HOME, lambda _h: True, pilot.real_s(HOME_REQUEST_PERIOD_S))
+
+
+def _has_fix(pos: Position) -> bool:
+    """Not the 0, 0 an autopilot reports before its position estimate."""
+    return abs(pos.lat_deg) > 1e-7 or abs(pos.lon_deg) > 1e-7
 
 
 async def _any_range(link: VehicleLink) -> None:
@@ -499,7 +604,7 @@ async def _fly(
             why = "aborted by the operator" if abort.is_set() else "time limit reached"
             notify(f"mission {why}: every vehicle goes home", Level.WARNING, None)
             mission_log.event(planner.t_s, f"mission {why}", "warning")
-            planner.recall()
+            await planner.recall()
             await asyncio.wait(
                 [t for t in tasks.values() if not t.done()],
                 timeout=run.clock.to_real(options.abort_return_s),

@@ -1,10 +1,12 @@
 """Flying one vehicle from cell to cell over its ``VehicleLink``: no planner in here.
 
 The pilot knows how to get a rover or a copter going (GUIDED, arm, take off),
-to put it on a cell centre and tell when it is there (from its position
-telemetry, never from a sleep), to collect range readings taken *after* it
-arrived, to fly a path home as an AUTO mission (which goes on without us
-when the link drops), and to park it on the charger (land or stop, disarm).
+to put it on a cell and tell when it is there (inside the cell and stopped,
+from its telemetry, never from a sleep), to collect range readings taken
+*after* it arrived, to fly a path home as an AUTO mission (which goes on
+without us when the link drops), to park it on the charger (land, or stop
+and roll out, back onto the pad if it rolled off, disarm), and to put it in
+its safe state (``make_safe``) when it is given up.
 
 Every wait is a wait on the vehicle's telemetry with a timeout in mission
 time (simulated seconds under a speed-up, converted through the clock).
@@ -25,6 +27,12 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from gcs.live.sensing import SECTOR_ORIENTATIONS
 from planner.grid import Cell
 from vehicles.clock import Clock
+from vehicles.driving import (
+    DEFAULT_TURN_RADIUS_M,
+    SPEED_UP_AND_STOP_S,
+    DrivingLimits,
+    read_driving_limits,
+)
 from vehicles.errors import CommandDenied, CommandError, LinkError, MissionTimeout
 from vehicles.geo import GeoFrame
 from vehicles.link import VehicleLink
@@ -34,6 +42,9 @@ from vehicles.telemetry import ObstacleDistances, Position, RangeReading, Topic
 
 #: A copter this high above home has left the ground (metres).
 CLIMBING_M = 0.1
+#: A car drives straight to a target at most this far off its nose (degrees); one
+#: further off it lines up for first (``Pilot._line_up``).
+CAR_AHEAD_DEG = 30.0
 
 
 @dataclass(frozen=True)
@@ -50,21 +61,30 @@ class Route:
 class PilotSettings:
     """Times are mission seconds (simulated under a speed-up)."""
 
-    #: Arrived when the horizontal distance to the cell centre is below this share of a cell.
-    arrival_tolerance_cells: float = 0.15
+    #: Arrived when inside the target cell: within this share of a cell of its centre (or
+    #: the vehicle's own acceptance radius, where that is tighter), stopped or reported
+    #: there.
+    arrival_tolerance_cells: float = 0.5
+    #: Below this ground speed a vehicle has stopped (m/s).
+    stopped_m_s: float = 0.15
     #: Copters fly at this height above home (low: every climb costs battery).
     cruise_alt_m: float = 3.0
-    #: A move may take this many times its travel time at cruise speed, plus ``move_slack_s``,
-    #: before the target is sent again (a GUIDED target has no acknowledgement).
+    #: A move may take this many times its expected time (distance at the vehicle's speed,
+    #: its turn, speeding up and stopping), plus ``move_slack_s``.
     move_time_factor: float = 3.0
     move_slack_s: float = 3.0
+    #: Times a move is sent before it is given up (each time because the vehicle showed
+    #: it lost the target, stopped short of it, or ran out of time).
     move_attempts: int = 4
-    #: A GUIDED target is sent again this often until the vehicle is there: it has no
-    #: acknowledgement, and a lost one would otherwise cost a whole move timeout.
-    target_resend_s: float = 1.0
+    #: After a target is sent, the vehicle's reported target (POSITION_TARGET_GLOBAL_INT)
+    #: is believed only when it arrives this much later (stream beat and link delay).
+    target_echo_s: float = 1.5
+    #: A vehicle that reports no target is sent it again only when it has stood this long
+    #: (beyond any turn) no nearer to it: the target was lost on the way.
+    stall_s: float = 3.0
     #: How long to wait for range readings taken after arrival.
     sensing_timeout_s: float = 3.0
-    #: Take-off, landing, mode changes that show in telemetry.
+    #: Take-off, landing, stopping, mode changes that show in telemetry.
     manoeuvre_timeout_s: float = 60.0
     #: Pause at every waypoint of a flight home (AUTO): the window in which the ground
     #: station can stop the vehicle if the planner does not grant the next cell.
@@ -75,8 +95,14 @@ class PilotSettings:
     verify_by_download: bool = False
     #: Retries of operations refused while the vehicle is not ready (pre-arm checks).
     ready_wait_s: float = 60.0
+    #: Times a rover is brought back onto the pad when it stopped off it.
+    park_attempts: int = 3
     #: Real seconds below which no timeout is cut, whatever the speed-up (event loop jitter).
     min_real_timeout_s: float = 0.25
+
+
+class MoveFailed(LinkError):
+    """The vehicle did not get to a cell; the message says where it is and why."""
 
 
 class Pilot:
@@ -88,6 +114,8 @@ class Pilot:
         clock: Clock,
         speed_m_s: float,
         settings: PilotSettings | None = None,
+        *,
+        car: bool = False,
     ) -> None:
         self.link = link
         self.kind = kind
@@ -96,9 +124,38 @@ class Pilot:
         self.speed_m_s = speed_m_s
         self.settings = settings or PilotSettings()
         self.flies = kind == VehicleKind.COPTER
+        #: A rover that steers round a turning circle (it cannot pivot in place).
+        self.car = car and not self.flies
+        #: What the vehicle's own settings say of its driving (``learn_limits``).
+        self.limits = DrivingLimits()
         #: The flight home on board, as uploaded: its cells, whether it lands, and the
         #: mission seq of its first cell.
         self._route: tuple[tuple[Cell, ...], bool, int] | None = None
+        #: MISSION_ITEM_REACHED messages so far, and when the vehicle last reported its
+        #: target (event loop time).
+        self._reached_reports = 0
+        #: Driving backwards (MAV_CMD_DO_SET_REVERSE) for the move under way.
+        self._reversing = False
+        self._target_heard_at: float | None = None
+        self._status_heard_at: float | None = None
+        link.router.on("MISSION_ITEM_REACHED", self._on_item_reached)
+        link.router.on("POSITION_TARGET_GLOBAL_INT", self._on_target_report)
+        link.router.on("HEARTBEAT", self._on_heartbeat)
+
+    def _on_item_reached(self, _msg: object) -> None:
+        self._reached_reports += 1
+
+    def _on_target_report(self, _msg: object) -> None:
+        self._target_heard_at = asyncio.get_running_loop().time()
+
+    def _on_heartbeat(self, _msg: object) -> None:
+        self._status_heard_at = asyncio.get_running_loop().time()
+
+    async def learn_limits(self) -> DrivingLimits:
+        """Read how the vehicle drives from its parameters (where they matter: rovers)."""
+        if not self.flies:
+            self.limits = await read_driving_limits(self.link)
+        return self.limits
 
     # -- time and state --------------------------------------------------------------
 
@@ -137,19 +194,38 @@ class Pilot:
         pos = pos or self.position
         return self.flies and pos is not None and pos.alt_rel_m > 0.5 * self.settings.cruise_alt_m
 
+    @property
+    def tolerance_m(self) -> float:
+        """How far from a cell's centre the vehicle may stop and be on it."""
+        tolerance = self.settings.arrival_tolerance_cells * self.geo.cell_size_m
+        radius = self.limits.acceptance_radius_m
+        return tolerance if radius is None else min(tolerance, radius)
+
     def at(self, pos: Position, cell: Cell) -> bool:
-        """On the centre of ``cell`` (and, for a copter, up at cruise height)."""
-        if self.offset_m(pos, cell) > self.settings.arrival_tolerance_cells * self.geo.cell_size_m:
+        """Inside ``cell`` (and, for a copter, up at cruise height), moving or not."""
+        if self.offset_m(pos, cell) > self.tolerance_m:
             return False
         return not self.flies or pos.alt_rel_m >= 0.8 * self.settings.cruise_alt_m
 
-    async def wait_position(self, predicate: Callable[[Position], bool], mission_s: float) -> Any:
+    def stopped(self, pos: Position) -> bool:
+        return math.hypot(pos.vn_m_s, pos.ve_m_s) < self.settings.stopped_m_s
+
+    async def wait_position(
+        self, predicate: Callable[[Position], bool], mission_s: float, what: str = ""
+    ) -> Any:
         """The cached position if it already satisfies ``predicate``, else the first update
-        that does; ``TimeoutError`` after ``mission_s``."""
+        that does; ``TimeoutError`` after ``mission_s`` (saying ``what`` was awaited)."""
         pos = self.position
         if pos is not None and predicate(pos):
             return pos
-        return await self.link.wait_for(Topic.POSITION, predicate, self.real_s(mission_s))
+        try:
+            return await self.link.wait_for(Topic.POSITION, predicate, self.real_s(mission_s))
+        except TimeoutError:
+            waited = f"{what} " if what else "a position "
+            raise TimeoutError(f"no {waited}within {mission_s:g} s") from None
+
+    async def wait_stopped(self, mission_s: float) -> Position:
+        return await self.wait_position(self.stopped, mission_s, "stop")
 
     # -- getting going ----------------------------------------------------------------
 
@@ -177,7 +253,7 @@ class Pilot:
 
         Nothing is sent when the telemetry already shows it so (every command costs a
         round trip, many on a lossy link); should the mode have changed since the last
-        heartbeat, ``goto`` finds out when the vehicle does not come and sets it again."""
+        heartbeat, ``goto`` finds out from the heartbeat and sets it again."""
         ready = self.flight_mode == FlightMode.GUIDED and self.armed
         if ready and (not self.flies or self.airborne()):
             return
@@ -203,37 +279,170 @@ class Pilot:
             await self.wait_position(
                 lambda p: p.alt_rel_m >= 0.9 * self.settings.cruise_alt_m,
                 self.settings.manoeuvre_timeout_s,
+                "climb to cruise height",
             )
             return
         raise LinkError("take-off refused every time")
 
     # -- moving --------------------------------------------------------------------------
 
-    def move_time_s(self, metres: float) -> float:
+    def move_time_s(self, metres: float, turn_deg: float = 0.0) -> float:
+        """How long a move may take: its expected time (the distance at the vehicle's
+        speed, its turn, speeding up and stopping) times ``move_time_factor``, plus slack."""
         s = self.settings
-        return s.move_time_factor * metres / self.speed_m_s + s.move_slack_s
+        speed = self.limits.cruise_m_s(self.speed_m_s)
+        expected = metres / speed
+        if not self.flies:
+            expected += SPEED_UP_AND_STOP_S
+            expected += self.limits.turn_s(turn_deg, car=self.car, speed_m_s=speed)
+        return s.move_time_factor * expected + s.move_slack_s
+
+    def turn_to_deg(self, pos: Position | None, lat: float, lon: float) -> float:
+        """How far the vehicle must turn to face a point (0 when it does not know)."""
+        if pos is None or pos.heading_deg is None or self.flies:
+            return 0.0
+        n0, e0 = self.geo.geo_to_local(pos.lat_deg, pos.lon_deg)
+        n1, e1 = self.geo.geo_to_local(lat, lon)
+        if math.hypot(n1 - n0, e1 - e0) < 1e-3:
+            return 0.0
+        bearing = math.degrees(math.atan2(e1 - e0, n1 - n0))
+        return abs((bearing - pos.heading_deg + 180.0) % 360.0 - 180.0)
 
     async def goto(self, cell: Cell) -> Position:
-        """Fly to the centre of ``cell`` in GUIDED and return the position on arrival.
+        """Drive or fly to ``cell`` in GUIDED; the position once there: inside the cell,
+        stopped or reported there.
 
-        The target is sent again every ``target_resend_s`` until the vehicle is there (the
-        message may have been lost), and GUIDED set again after a move's time without
-        arriving; ``TimeoutError`` after every attempt."""
+        The target is sent once, and again only when the vehicle shows it lost it: out
+        of GUIDED, steering to another target, stopped short of the cell after saying
+        it reached it, or (a vehicle that reports no target) standing still no nearer;
+        or when the move's whole time is up. Each autopilot restarts its path on a new
+        target, so a target sent on a timer would keep a rover from ever arriving.
+        A car is lined up first (``_line_up``). ``MoveFailed`` after ``move_attempts``
+        sends, saying what happened."""
         lat, lon = self.geo.cell_centre(cell)
-        alt = self.settings.cruise_alt_m if self.flies else 0.0
+        why = ""
+        for _attempt in range(self.settings.move_attempts):
+            if self.flight_mode not in (None, FlightMode.GUIDED):
+                await self.set_mode(FlightMode.GUIDED)
+            try:
+                if self.car:
+                    await self._line_up(lat, lon)
+                outcome = await self._drive(lat, lon, lambda p: self.at(p, cell))
+            finally:
+                await self._set_reverse(False)
+            if isinstance(outcome, Position):
+                return outcome
+            why = outcome
         pos = self.position
-        distance = self.geo.cell_size_m if pos is None else self.offset_m(pos, cell)
-        timeout = self.move_time_s(distance)
-        for _ in range(self.settings.move_attempts):
-            left = timeout
-            while left > 0:
-                await self.link.goto(lat, lon, alt)
-                wait = min(self.settings.target_resend_s, left)
-                with contextlib.suppress(TimeoutError):
-                    return await self.wait_position(lambda p: self.at(p, cell), wait)
-                left -= wait
-            await self.set_mode(FlightMode.GUIDED)
-        raise TimeoutError(f"not at cell {cell} after {self.settings.move_attempts} moves")
+        where = "" if pos is None else f", {self.offset_m(pos, cell):.2f} m from its centre"
+        raise MoveFailed(
+            f"not at cell {cell} after {self.settings.move_attempts} tries{where} ({why})"
+        )
+
+    async def _drive(
+        self, lat: float, lon: float, there: Callable[[Position], bool]
+    ) -> Position | str:
+        """Send one target and follow the vehicle: its position once ``there`` and stopped
+        (or reported there), else why the target must be sent again."""
+        loop = asyncio.get_running_loop()
+        pos = self.position
+        distance = self.geo.cell_size_m if pos is None else self.distance_m(pos, lat, lon)
+        limit_s = self.move_time_s(distance, self.turn_to_deg(pos, lat, lon))
+        await self.link.goto(lat, lon, self.settings.cruise_alt_m if self.flies else 0.0)
+        sent = loop.time()
+        reports = self._reached_reports
+        deadline = sent + self.real_s(limit_s)
+        watch = _Progress(sent, distance)
+        while True:
+            pos = self.position
+            done = pos is not None and there(pos)
+            if done and (self.stopped(pos) or self._reached_reports > reports):
+                return pos
+            lost = self._target_lost(pos, (lat, lon), sent, reports, watch)
+            if lost:
+                return lost
+            left = deadline - loop.time()
+            if left <= 0:
+                return f"not there after {limit_s:.0f} s"
+            with contextlib.suppress(TimeoutError):
+                await self.link.wait_for(Topic.POSITION, lambda _p: True, min(left, 1.0))
+
+    async def _line_up(self, lat: float, lon: float) -> None:
+        """A car cannot turn on the spot, and ArduPilot's car overshoots a target off to
+        its side by metres (seen on SITL). A target behind it is driven to backwards
+        (MAV_CMD_DO_SET_REVERSE); one off to its side, after backing up one turning
+        radius along its heading (back the way it came), whence it lies ahead."""
+        pos = self.position
+        if pos is None or pos.heading_deg is None:
+            return
+        off = self.turn_to_deg(pos, lat, lon)
+        if off <= CAR_AHEAD_DEG:
+            return
+        await self._set_reverse(True)
+        if off >= 180.0 - CAR_AHEAD_DEG:
+            return  # straight back to it
+        back = self.limits.turn_radius_m or DEFAULT_TURN_RADIUS_M
+        north, east = self.geo.geo_to_local(pos.lat_deg, pos.lon_deg)
+        h = math.radians(pos.heading_deg)
+        to = self.geo.local_to_geo(north - back * math.cos(h), east - back * math.sin(h))
+        near = 0.25 * self.geo.cell_size_m
+        await self._drive(*to, lambda p: self.distance_m(p, *to) <= near)
+        await self._set_reverse(False)
+
+    async def _set_reverse(self, backwards: bool) -> None:
+        if backwards == self._reversing:
+            return
+        await self.link.command_long(mavlink.MAV_CMD_DO_SET_REVERSE, 1.0 if backwards else 0.0)
+        self._reversing = backwards
+
+    def distance_m(self, pos: Position, lat: float, lon: float) -> float:
+        """Horizontal distance from a position to a point."""
+        return self._metres(pos.lat_deg, pos.lon_deg, lat, lon)
+
+    def _metres(self, lat0: float, lon0: float, lat1: float, lon1: float) -> float:
+        n0, e0 = self.geo.geo_to_local(lat0, lon0)
+        n1, e1 = self.geo.geo_to_local(lat1, lon1)
+        return math.hypot(n1 - n0, e1 - e0)
+
+    def _target_lost(
+        self,
+        pos: Position | None,
+        target: tuple[float, float],
+        sent: float,
+        reports: int,
+        watch: _Progress,
+    ) -> str:
+        """Why the target must be sent again, or "" while the vehicle is on its way."""
+        mode = self.flight_mode
+        beat = self._status_heard_at
+        if beat is not None and beat > sent and mode is not None and mode != FlightMode.GUIDED:
+            status = self.link.status
+            return f"it left GUIDED for {status.mode_name if status else mode}"
+        if pos is None:
+            return ""
+        loop_now = asyncio.get_running_loop().time()
+        heard = self._target_heard_at
+        echo = self.link.telemetry.target
+        grace = self.real_s(self.settings.target_echo_s)
+        # A report of the target it steers to, made after it had our target.
+        reported = heard is not None and echo is not None and heard >= sent + grace
+        if reported:
+            steers_to = self._metres(echo.lat_deg, echo.lon_deg, *target)
+            if steers_to > 0.1 * self.geo.cell_size_m:
+                return "it steers to another target"
+        offset = self.distance_m(pos, *target)
+        if not self.stopped(pos):
+            watch.moving(loop_now, offset)
+            return ""
+        if self._reached_reports > reports:
+            return f"it stopped {offset:.2f} m from the target, saying it was there"
+        if not reported:
+            # No report of our target: standing still this long (beyond any turn in
+            # place), no nearer, it never got it.
+            turn = self.limits.turn_s(180.0, car=self.car, speed_m_s=self.speed_m_s)
+            if watch.stalled(loop_now, offset, self.real_s(self.settings.stall_s + turn)):
+                return "it stood still, no nearer"
+        return ""
 
     async def stop_here(self) -> Position:
         """Stop (GUIDED with no target), then settle on the centre of the cell it is in."""
@@ -241,6 +450,8 @@ class Pilot:
         pos = self.position
         if pos is None:
             raise LinkError("no position")
+        if not self.flies:
+            pos = await self.wait_stopped(self.settings.manoeuvre_timeout_s)
         return await self.goto(self.cell_of(pos))
 
     # -- sensing -------------------------------------------------------------------------
@@ -380,35 +591,83 @@ class Pilot:
     def mission_seq(self) -> int | None:
         return self.link.telemetry.mission.current_seq
 
-    # -- parking -------------------------------------------------------------------------
+    # -- parking and the safe state --------------------------------------------------
 
-    async def park(self) -> None:
-        """On the charger: a copter lands, a rover holds; then disarm (only a disarmed
-        vehicle charges)."""
+    async def park(self, pad: Cell) -> None:
+        """Stop on ``pad`` and disarm (only a disarmed vehicle charges): a copter lands; a
+        rover holds, and once it has stopped rolling is brought back onto the pad if it
+        stopped off it, then disarmed."""
         self._route = None  # the flight home is over: the next one is uploaded afresh
         wait_s = self.settings.manoeuvre_timeout_s
         if self.flies:
-            pos = self.position
-            if pos is None or pos.alt_rel_m > 0.2:
-                await self.link.land()  # also when an AUTO route is landing it already
-                await self.wait_position(lambda p: p.alt_rel_m <= 0.2, wait_s)
-            if self.armed:  # autopilots disarm by themselves once landed: give it a moment
-                with contextlib.suppress(TimeoutError):
-                    await self.link.wait_for(
-                        Topic.STATUS, lambda s: not s.armed, self.real_s(self.settings.move_slack_s)
-                    )
+            await self._land(wait_s)
         else:
-            await self.set_mode(FlightMode.HOLD)
+            for _ in range(self.settings.park_attempts):
+                if self.flight_mode != FlightMode.HOLD:
+                    await self.set_mode(FlightMode.HOLD)
+                pos = await self.wait_stopped(wait_s)
+                if self.offset_m(pos, pad) <= self.tolerance_m:
+                    break
+                await self.underway()  # GUIDED: back onto the pad, arriving stopped
+                await self.goto(pad)
+            else:
+                pos = self.position
+                off = "" if pos is None else f" ({self.offset_m(pos, pad):.2f} m off its centre)"
+                raise MoveFailed(
+                    f"did not stop on the pad {pad} in {self.settings.park_attempts} tries{off}"
+                )
+        await self._disarm(wait_s)
+
+    async def _land(self, wait_s: float) -> None:
+        pos = self.position
+        if pos is None or pos.alt_rel_m > 0.2:
+            await self.link.land()  # also when an AUTO route is landing it already
+            await self.wait_position(lambda p: p.alt_rel_m <= 0.2, wait_s, "landing")
+        if self.armed:  # autopilots disarm by themselves once landed: give it a moment
+            with contextlib.suppress(TimeoutError):
+                await self.link.wait_for(
+                    Topic.STATUS, lambda s: not s.armed, self.real_s(self.settings.move_slack_s)
+                )
+
+    async def _disarm(self, wait_s: float) -> None:
         if self.armed:
             await self._until_ready(self.link.disarm)
             if self.armed:
-                await self.link.wait_for(Topic.STATUS, lambda s: not s.armed, self.real_s(wait_s))
+                try:
+                    await self.link.wait_for(
+                        Topic.STATUS, lambda s: not s.armed, self.real_s(wait_s)
+                    )
+                except TimeoutError:
+                    raise TimeoutError(f"still armed {wait_s:g} s after disarming") from None
 
-    async def hold(self) -> None:
-        """Stop where it is: HOLD for a rover, a landing for a copter (it cannot hover for
-        ever). Used when a vehicle cannot be sent to charge."""
+    async def make_safe(self) -> str:
+        """The safe state, wherever the vehicle is: a rover stopped (HOLD) and disarmed, a
+        copter landed (LAND) and disarmed. Returns what was done, for the operator;
+        raises ``LinkError`` or ``TimeoutError`` when the vehicle does not follow."""
         self._route = None
+        wait_s = self.settings.manoeuvre_timeout_s
         if self.flies:
-            await self.link.land()
-        else:
-            await self.link.set_mode(FlightMode.HOLD)
+            await self._land(wait_s)
+            await self._disarm(wait_s)
+            return "landed and disarmed"
+        await self.set_mode(FlightMode.HOLD)
+        await self.wait_stopped(wait_s)
+        await self._disarm(wait_s)
+        return "stopped (HOLD) and disarmed"
+
+
+@dataclass
+class _Progress:
+    """When a vehicle last got nearer its target, to tell a lost target from a pause."""
+
+    since: float
+    best_m: float
+
+    def moving(self, now: float, offset_m: float) -> None:
+        self.since, self.best_m = now, min(self.best_m, offset_m)
+
+    def stalled(self, now: float, offset_m: float, after_s: float) -> bool:
+        if offset_m < self.best_m - 0.05:
+            self.since, self.best_m = now, offset_m
+            return False
+        return now - self.since >= after_s

@@ -1,11 +1,17 @@
 """The planner shared by every vehicle task, and what the operator sees of each vehicle.
 
-All vehicle tasks run in one asyncio loop and the planner is synchronous, so
-a call to it is atomic: no locks. ``SharedPlanner`` wraps the
-``Coordinator`` to do what must happen on every call: record the run, write
-the mission log, pass planner events on as operator messages, and wake the
-vehicles that wait for something to change (``ChangeSignal``) whenever a
-vehicle observes, its mode changes or one is lost.
+The planner is synchronous and may take a while (a long search on a large
+map, numba compiling a kernel): its decisions and observations run in a
+worker thread, one at a time under a lock, so that the event loop keeps
+every link's heartbeat and telemetry going whatever the planner does.
+Everything else (the record, the mission log, the operator's messages)
+happens on the event loop, under the same lock, so the log is only ever
+written from one thread. Reads of the planner's state that must be
+consistent (a way home) go through ``reading()``. ``SharedPlanner`` wraps
+the ``Coordinator`` to do what must happen on every call: record the run,
+write the mission log, pass planner events on as operator messages, and
+wake the vehicles that wait for something to change (``ChangeSignal``)
+whenever a vehicle observes, its mode changes or one is lost.
 """
 
 from __future__ import annotations
@@ -13,9 +19,10 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import AsyncIterator, Callable, Mapping
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import Any, TypeVar
 
 from gcs.live.record import MissionRecord
 from gcs.mission_log import MissionLog
@@ -30,6 +37,21 @@ from planner.coordinator import (
 )
 from planner.grid import Cell, CellState, Direction
 from vehicles.clock import Clock
+
+_T = TypeVar("_T")
+
+
+async def _in_thread(fn: Callable[..., _T], *args: Any) -> _T:
+    """``fn(*args)`` in a worker thread. Cancelled meanwhile, it still waits for the call
+    to end before it lets the cancellation through: the caller's lock must not be
+    released while the planner is still at work."""
+    future = asyncio.get_running_loop().run_in_executor(None, fn, *args)
+    try:
+        return await asyncio.shield(future)
+    except asyncio.CancelledError:
+        with contextlib.suppress(BaseException):
+            await future
+        raise
 
 
 class ChangeSignal:
@@ -79,6 +101,8 @@ class VehicleView:
     kind: str
     phase: Phase = Phase.CONNECTING
     mode: str = ""
+    #: What the vehicle is waiting for or doing in its phase (e.g. "GPS fix"), if anything.
+    detail: str = ""
     cell: Cell | None = None
     battery_pct: float | None = None
     energy_pct_per_m: float | None = None
@@ -121,6 +145,8 @@ class SharedPlanner:
         self.notify = notify
         self.views = views
         self.changed = ChangeSignal()
+        #: One planner call at a time; held while it runs in its worker thread.
+        self._lock = asyncio.Lock()
         self.planner_s = 0.0
         self.t0 = clock.now()
         self._coverage_period_s = coverage_period_s
@@ -146,7 +172,20 @@ class SharedPlanner:
 
     # -- planner calls ---------------------------------------------------------------
 
-    def observe(
+    @contextlib.asynccontextmanager
+    async def reading(self) -> AsyncIterator[Coordinator]:
+        """The coordinator, while no planner call runs (for reads that must agree)."""
+        async with self._lock:
+            yield self.coordinator
+
+    async def _timed(self, fn: Callable[..., _T], *args: Any) -> _T:
+        tick = time.perf_counter()
+        try:
+            return await _in_thread(fn, *args)
+        finally:
+            self.planner_s += time.perf_counter() - tick
+
+    async def observe(
         self,
         agent: int,
         cell: Cell,
@@ -154,13 +193,23 @@ class SharedPlanner:
         battery_pct: float,
         lat_lon_heading: tuple[float, float, float | None] | None = None,
     ) -> None:
-        tick = time.perf_counter()
-        self._observed_at[agent] = tick
-        before = self.coordinator.mode(agent)
-        self._at[agent] = cell
-        self._heading_for.pop(agent, None)
-        self.coordinator.observe(agent, cell, readings, battery_pct)
-        self.planner_s += time.perf_counter() - tick
+        async with self._lock:
+            self._observed_at[agent] = time.perf_counter()
+            before = self.coordinator.mode(agent)
+            self._at[agent] = cell
+            self._heading_for.pop(agent, None)
+            await self._timed(self.coordinator.observe, agent, cell, readings, battery_pct)
+            self._observed(agent, cell, battery_pct, before, readings, lat_lon_heading)
+
+    def _observed(
+        self,
+        agent: int,
+        cell: Cell,
+        battery_pct: float,
+        before: AgentMode,
+        readings: Mapping[Direction, CellState],
+        lat_lon_heading: tuple[float, float, float | None] | None,
+    ) -> None:
         self.record.arrived(agent, cell, battery_pct, self.coordinator.belief.covered_count)
         lat, lon, heading = lat_lon_heading or (None, None, None)
         self.log.agent_state(
@@ -183,13 +232,15 @@ class SharedPlanner:
         if observed is not None:
             self.decision_latency_s.append(time.perf_counter() - observed)
 
-    def decide(self, agent: int) -> Action:
-        tick = time.perf_counter()
+    async def decide(self, agent: int) -> Action:
+        async with self._lock:
+            return await self._decide(agent)
+
+    async def _decide(self, agent: int) -> Action:
         coordinator = self.coordinator
         before = coordinator.mode(agent)
         homing = before == AgentMode.HOMING or coordinator.homeward
-        action = coordinator.decide(agent)
-        self.planner_s += time.perf_counter() - tick
+        action = await self._timed(coordinator.decide, agent)
         if action.kind == ActionKind.MOVE:
             assert action.to is not None
             if self._claimed_by_other(agent, action.to):
@@ -226,14 +277,20 @@ class SharedPlanner:
             if c == cell
         )
 
-    def update_battery(self, agent: int, battery_pct: float) -> None:
-        self.coordinator.update_battery(agent, battery_pct)
+    async def update_battery(self, agent: int, battery_pct: float) -> None:
+        async with self._lock:
+            self.coordinator.update_battery(agent, battery_pct)
 
-    def set_energy(self, agent: int, pct_per_m: float) -> None:
-        self.coordinator.set_energy_per_m(agent, pct_per_m)
+    async def set_energy(self, agent: int, pct_per_m: float) -> None:
+        async with self._lock:
+            self.coordinator.set_energy_per_m(agent, pct_per_m)
         self.views[agent].energy_pct_per_m = pct_per_m
 
-    def mark_lost(self, agent: int, why: str) -> None:
+    async def mark_lost(self, agent: int, why: str) -> None:
+        async with self._lock:
+            self._mark_lost(agent, why)
+
+    def _mark_lost(self, agent: int, why: str) -> None:
         """Give a vehicle up. If it was on its way to a cell, it is taken to be there: a
         GUIDED target or a mission goes on without the link, so that cell (and the one it
         left, which the planner keeps holding for a lost agent) must stay out of everyone
@@ -253,9 +310,10 @@ class SharedPlanner:
         self._after(agent, AgentMode.LOST, force_coverage=True)
         self.changed.notify()
 
-    def recall(self) -> None:
+    async def recall(self) -> None:
         """Bring every vehicle home under the planner (an abort), and wake those waiting."""
-        self.coordinator.recall()
+        async with self._lock:
+            self.coordinator.recall()
         self.changed.notify()
 
     def mode(self, agent: int) -> AgentMode:
