@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import enum
 import json
 import platform
 import signal
@@ -191,9 +192,7 @@ def on_free_ports(mission_path: Path, folder: Path) -> Path:
     raw["fleet"] = {
         "vehicles": [
             {
-                **{f.name: getattr(v, f.name) for f in dataclasses.fields(v)},
-                "type": v.type.value,
-                "sensing": v.sensing.value,
+                **{f.name: _plain(getattr(v, f.name)) for f in dataclasses.fields(v)},
                 "connection": f"udpin:127.0.0.1:{port}",
             }
             for v, port in zip(mission.fleet, ports, strict=True)
@@ -202,6 +201,11 @@ def on_free_ports(mission_path: Path, folder: Path) -> Path:
     path = folder / "mission.yaml"
     path.write_text(yaml.safe_dump(raw, sort_keys=False))
     return path
+
+
+def _plain(value: object) -> object:
+    """A mission value as YAML writes it (an enum as its text)."""
+    return value.value if isinstance(value, enum.Enum) else value
 
 
 def run_case(

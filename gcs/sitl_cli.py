@@ -60,7 +60,7 @@ def drive_settings(spec: VehicleSpec) -> DriveSettings | None:
 def mock_fleet_configs(
     mission: Mission,
     tcp_base_port: int | None = None,
-    startup_delay_s: float = STARTUP_DELAY_S,
+    startup_delay_s: float = 0.0,
     keys: KeyFile | None = None,
     *,
     gcs_failsafe: GcsFailsafe = FLEET_GCS_FAILSAFE,

@@ -119,8 +119,15 @@ def _free_tcp_port() -> int:
 
 def mock_config(mission: Mission, connection: str, **changes: Any) -> MockVehicleConfig:
     """The mission's vehicle as ``sitl-mock`` would build it, on ``connection``, with
-    ``vehicle``/``battery``/``faults`` replaced and ``link_*`` fields of the link set."""
+    ``vehicle``/``battery``/``faults`` replaced and ``link_*`` fields of the link set.
+    It drives in straight lines and stops dead (no ArduPilot-like driving), and its pad
+    charges it, so that what the link reports can be held to the truth exactly."""
     base = mock_fleet_configs(mission)[0]
+    base = dataclasses.replace(
+        base,
+        vehicle=dataclasses.replace(base.vehicle, drive=None),
+        battery=dataclasses.replace(base.battery, pad_charging=True),
+    )
     link_changes = {k[5:]: v for k, v in changes.items() if k.startswith("link_")}
     others = {k: v for k, v in changes.items() if not k.startswith("link_")}
     link = dataclasses.replace(base.link, connection=connection, **link_changes)
@@ -330,7 +337,9 @@ async def drive_measuring(pair: Pair, cell: Cell) -> float:
 @pytest.mark.parametrize("kind", KINDS)
 async def test_battery_follows_distance_and_charging(mission: Mission, kind: str) -> None:
     energy = mission.fleet[0].energy_per_m_pct
-    battery = dataclasses.replace(mock_fleet_configs(mission)[0].battery, start_pct=60.0)
+    battery = dataclasses.replace(
+        mock_fleet_configs(mission)[0].battery, start_pct=60.0, pad_charging=True
+    )
     async with asyncio.timeout(BODY_S), linked(mission, kind, battery=battery) as pair:
         link, truth = pair.link, pair.truth
         # Disarmed on the pad: charging, and the link sees it rise.

@@ -342,7 +342,7 @@ async def test_message_interval_and_request_message() -> None:
 
 async def test_startup_delay_refuses_arming_and_mission_upload() -> None:
     async with mock_and_gcs(vehicle={"startup_delay_s": 5.0}, speedup=1.0) as (_fleet, gcs):
-        prearm = gcs.waiter(lambda m: m.get_type() == "STATUSTEXT" and m.text.startswith("PreArm"))
+        prearm = gcs.waiter(lambda m: m.get_type() == "STATUSTEXT" and m.text.startswith("Arm:"))
         arm = mavlink.MAV_CMD_COMPONENT_ARM_DISARM
         assert await gcs.command(arm, 1) == mavlink.MAV_RESULT_FAILED
         await asyncio.wait_for(prearm, 3)

@@ -619,7 +619,8 @@ async def test_killed_gcs_rover_holds_and_a_new_gcs_takes_over(tmp_path: Path, k
             assert status.armed
             assert truth.mode == RoverMode.HOLD and truth.gcs_failsafe_active
             assert truth.cell != target
-            stopped = await let_vehicle_time_pass(first, 3.0)
+            # In HOLD a rover's motors stop: it rolls to a stop, as ArduPilot Rover does.
+            stopped = await let_vehicle_time_pass(first, 15.0)
             assert math.hypot(stopped.vn_m_s, stopped.ve_m_s) == 0
             where = (truth.north_m, truth.east_m)
         # The first ground station is gone; the vehicle holds on.

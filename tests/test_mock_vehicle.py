@@ -115,9 +115,9 @@ def test_copter_drains_while_hovering() -> None:
     assert b.remaining_pct == pytest.approx(98.0)
 
 
-def test_charges_only_disarmed_on_a_pad() -> None:
+def test_a_self_charging_pack_charges_only_disarmed_on_a_pad() -> None:
     world = world_of(["C...."])
-    settings_ = BatterySettings(start_pct=50.0, charge_rate_pct_s=2.0)
+    settings_ = BatterySettings(start_pct=50.0, charge_rate_pct_s=2.0, pad_charging=True)
     v, _ = make_vehicle(world, battery=settings_)
     run(v, 5.0)
     assert v.battery.remaining_pct == pytest.approx(60.0)
@@ -344,11 +344,11 @@ def test_the_pad_is_a_depot_for_the_whole_fleet() -> None:
 def test_arming_refused_in_rtl_and_during_startup() -> None:
     world = world_of(["C..."])
     v, _ = make_vehicle(world, startup_delay_s=2.0)
-    with pytest.raises(CommandRefused, match="PreArm"):
+    with pytest.raises(CommandRefused, match="Need Position Estimate"):
         v.arm()
     with pytest.raises(CommandRefused, match="requires position"):
         v.set_mode(RoverMode.GUIDED)
-    run(v, 2.0)
+    run(v, 2.1)
     v.set_mode(RoverMode.RTL)
     with pytest.raises(CommandRefused, match="not armable"):
         v.arm()

@@ -52,7 +52,7 @@ from gcs.mission_log import MissionLog
 from gcs.percentile import percentile
 from gcs.result import RunResult
 from gcs.simulate import planner_settings, prior_map
-from gcs.sitl_cli import mock_fleet_configs
+from gcs.sitl_cli import STARTUP_DELAY_S, mock_fleet_configs
 from gcs.warm_up import warm_up_planner
 from planner.coordinator import Coordinator
 from planner.settings import AgentSpec
@@ -195,7 +195,7 @@ def sim_configs(
 ) -> list[MockVehicleConfig]:
     """The mission's mock fleet with the requested faults (and signing keys)."""
     configs = []
-    for config in mock_fleet_configs(mission, keys=keys):
+    for config in mock_fleet_configs(mission, keys=keys, startup_delay_s=STARTUP_DELAY_S):
         cuts = tuple(LinkCut(at, d) for sysid, at, d in faults.cuts if sysid == config.sysid)
         link = LinkFaults(
             loss_to_gcs=faults.loss,

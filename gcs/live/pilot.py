@@ -602,20 +602,21 @@ class Pilot:
         if self.flies:
             await self._land(wait_s)
         else:
-            for _ in range(self.settings.park_attempts):
+            tries = self.settings.park_attempts
+            for attempt in range(tries + 1):
                 if self.flight_mode != FlightMode.HOLD:
                     await self.set_mode(FlightMode.HOLD)
                 pos = await self.wait_stopped(wait_s)
-                if self.offset_m(pos, pad) <= self.tolerance_m:
+                off = self.offset_m(pos, pad)
+                if off <= self.tolerance_m:
                     break
+                if attempt == tries:
+                    raise MoveFailed(
+                        f"did not stop on the pad {pad} in {tries} tries "
+                        f"({off:.2f} m off its centre)"
+                    )
                 await self.underway()  # GUIDED: back onto the pad, arriving stopped
                 await self.goto(pad)
-            else:
-                pos = self.position
-                off = "" if pos is None else f" ({self.offset_m(pos, pad):.2f} m off its centre)"
-                raise MoveFailed(
-                    f"did not stop on the pad {pad} in {self.settings.park_attempts} tries{off}"
-                )
         await self._disarm(wait_s)
 
     async def _land(self, wait_s: float) -> None:
