@@ -104,7 +104,7 @@ async def test_gcs_run_live_is_watched_while_it_flies(tmp_path: Path) -> None:
     connected during the mission sees the map and the vehicle advertised, and the
     vehicle's fixes arrive."""
     mission = write_mission(tmp_path, SMALL, [{"type": "rover"}])
-    argv = ["run", str(mission), "--sim", "--live", "0", "--quiet", "--speedup", "5"]
+    argv = ["run", str(mission), "--sim", "--live", "0", "--quiet", "--speedup", "20"]
     process = await asyncio.create_subprocess_exec(
         sys.executable,
         "-c",

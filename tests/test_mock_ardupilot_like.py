@@ -9,6 +9,7 @@ The state machine is stepped by hand; no network, no clock.
 from __future__ import annotations
 
 import math
+from itertools import pairwise
 
 import pytest
 from hypothesis import given, settings
@@ -84,7 +85,7 @@ def test_a_car_turns_no_tighter_than_its_circle() -> None:
         headings.append(v.heading_deg)
         positions.append((v.north_m, v.east_m))
     radius = DriveSettings().turn_radius_m
-    for (h0, h1), (p0, p1) in zip(zip(headings, headings[1:]), zip(positions, positions[1:])):
+    for (h0, h1), (p0, p1) in zip(pairwise(headings), pairwise(positions), strict=True):
         turned = math.radians(abs((h1 - h0 + 180) % 360 - 180))
         assert turned <= math.dist(p0, p1) / radius + 1e-6
 

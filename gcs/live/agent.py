@@ -39,11 +39,9 @@ from gcs.live.charging import ChargeSettings, PadStay
 from gcs.live.energy import EnergyEstimator
 from gcs.live.pilot import Pilot, PilotSettings
 from gcs.live.sensing import (
-    classify,
-    compass_ranges_from_obstacles,
-    compass_ranges_from_sensors,
-    diagonal_evidence,
-    merge_ranges,
+    neighbour_states,
+    rays_from_obstacles,
+    rays_from_sensors,
     readings_from_map,
 )
 from gcs.live.shared import Level, Phase, SharedPlanner, VehicleView
@@ -59,6 +57,8 @@ from vehicles.telemetry import Battery, Position, Topic
 log = logging.getLogger(__name__)
 
 _FOREVER_S = 1e9
+#: Longest time a position is carried on at its velocity to where a reading was taken.
+SENSOR_EXTRAPOLATION_S = 0.5
 _WARNING_SEVERITY = 4  # MAV_SEVERITY_WARNING
 
 
@@ -80,6 +80,8 @@ class AgentSettings:
     max_failures: int = 6
     #: Longest wait for a vehicle given up to reach its safe state (mission seconds).
     safe_state_s: float = 60.0
+    #: A vehicle's text is told to the operator again only after this many mission seconds.
+    repeat_text_s: float = 30.0
     pilot: PilotSettings = field(default_factory=PilotSettings)
     charge: ChargeSettings = field(default_factory=ChargeSettings)
 
@@ -242,6 +244,11 @@ class Agent:
                         self._step_home = True
                         await self._resync()
                         return None
+                    except (LinkError, TimeoutError):
+                        # The vehicle did not follow the route (a waypoint it could not
+                        # make): the rest of this trip is stepped, cell by cell.
+                        self._step_home = True
+                        raise
             self._pad = None
             await self._step(action.to)
             return None
@@ -319,13 +326,22 @@ class Agent:
             await updates.aclose()  # type: ignore[attr-defined]
 
     async def _relay_statustext(self) -> None:
-        """The vehicle's own warnings (STATUSTEXT up to MAV_SEVERITY_WARNING) for the operator."""
+        """The vehicle's own warnings (STATUSTEXT up to MAV_SEVERITY_WARNING) for the operator,
+        each text once per ``repeat_text_s`` (ArduPilot repeats its pre-arm refusals every
+        time arming is retried)."""
         texts = self.link.stream(Topic.STATUSTEXT)
+        told: dict[str, float] = {}
+        clock = self.pilot.clock
         try:
             async for text in texts:
-                if text.severity <= _WARNING_SEVERITY:
-                    level = Level.WARNING if text.severity == _WARNING_SEVERITY else Level.ERROR
-                    self._tell(f"says: {text.text}", level)
+                if text.severity > _WARNING_SEVERITY:
+                    continue
+                now = clock.now()
+                if now - told.get(text.text, -math.inf) < self.settings.repeat_text_s:
+                    continue
+                told[text.text] = now
+                level = Level.WARNING if text.severity == _WARNING_SEVERITY else Level.ERROR
+                self._tell(f"says: {text.text}", level)
         finally:
             await texts.aclose()  # type: ignore[attr-defined]
 
@@ -363,30 +379,32 @@ class Agent:
         heading = pos.heading_deg
         if heading is None:
             return {}
-        compass = merge_ranges(
-            compass_ranges_from_sensors(heading, ranges),
-            compass_ranges_from_obstacles(heading, obstacles) if obstacles else {},
-        )
-        cell_size = self.pilot.geo.cell_size_m
-        diagonals = None
+        # Each reading from where the vehicle was when it took it (it may still creep).
+        rays = [
+            ray
+            for orientation, reading in ranges.items()
+            for ray in rays_from_sensors(
+                heading, {orientation: reading}, self._sensor_offset(cell, reading.time_boot_ms)
+            )
+        ]
         if obstacles:
-            offset = self._sensor_offset(cell, pos, obstacles.time_usec // 1000)
-            diagonals = diagonal_evidence(heading, obstacles, cell_size, offset_cells=offset)
-        return classify(compass, cell_size, diagonals=diagonals)
+            at = self._sensor_offset(cell, obstacles.time_usec // 1000)
+            rays += rays_from_obstacles(heading, obstacles, at)
+        return neighbour_states(rays, self.pilot.geo.cell_size_m)
 
-    def _sensor_offset(self, cell: Cell, pos: Position, at_ms: int) -> tuple[float, float]:
+    def _sensor_offset(self, cell: Cell, at_ms: int) -> tuple[float, float]:
         """Where the vehicle was when it took readings at ``at_ms``, in cells east and north
-        of the centre of ``cell``: the arrival position carried on toward the centre at
-        the arrival speed, never past it (the vehicle stops there)."""
+        of the centre of ``cell``: its latest position, carried on at its velocity to that
+        time (a vehicle still braking has moved on a little)."""
         geo = self.pilot.geo
+        pos = self.pilot.position
+        assert pos is not None
         north, east = geo.geo_to_local(pos.lat_deg, pos.lon_deg)
+        dt_s = max(
+            -SENSOR_EXTRAPOLATION_S, min(SENSOR_EXTRAPOLATION_S, (at_ms - pos.time_boot_ms) / 1000)
+        )
+        north, east = north + pos.vn_m_s * dt_s, east + pos.ve_m_s * dt_s
         centre_n, centre_e = geo.cell_centre_local(cell)
-        to_n, to_e = centre_n - north, centre_e - east
-        gap = math.hypot(to_n, to_e)
-        if gap > 1e-9:
-            dt_s = max(0.0, (at_ms - pos.time_boot_ms) / 1000.0)
-            travel = min(gap, math.hypot(pos.vn_m_s, pos.ve_m_s) * dt_s)
-            north, east = north + to_n / gap * travel, east + to_e / gap * travel
         size = geo.cell_size_m
         return ((east - centre_e) / size, (north - centre_n) / size)
 
@@ -415,6 +433,8 @@ class Agent:
         waypoint and asking the planner for the next cell; stop and hand back to
         stepping when the planner does not grant it."""
         await self.pilot.underway()
+        if self.pilot.car:
+            await self.pilot.line_up(cells[0])
         route = await self.pilot.start_route(cells, land=True)
         self.view.phase = Phase.FLYING_HOME
         if route.uploaded:
@@ -424,6 +444,7 @@ class Agent:
         first_seq = route.first_seq
         previous = self.planner.coordinator.cell_of(self.id)
         heading = None
+        start = self.pilot.position
         for k, cell in enumerate(cells):
             seq = first_seq + k
 
@@ -433,13 +454,12 @@ class Agent:
 
             metres = self.pilot.geo.cell_size_m * max(1, manhattan(previous, cell))
             leg = (cell[0] - previous[0], cell[1] - previous[1])
-            turn = (
-                0.0
-                if heading is None or leg == heading
-                else 180.0
-                if leg == (-heading[0], -heading[1])
-                else 90.0
-            )
+            if heading is None:  # the first waypoint: from where the vehicle faces
+                turn = self.pilot.turn_to_deg(start, *self.pilot.geo.cell_centre(cell))
+            elif leg == heading:
+                turn = 0.0
+            else:
+                turn = 180.0 if leg == (-heading[0], -heading[1]) else 90.0
             heading = leg
             pos = await self.pilot.wait_position(
                 reached,

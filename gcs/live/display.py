@@ -15,7 +15,7 @@ from rich.table import Table
 from rich.text import Text
 
 from gcs.live.mission import LiveRun
-from gcs.live.shared import Level, Phase
+from gcs.live.shared import Level, Phase, VehicleView
 
 REFRESH_HZ = 4
 _PHASE_STYLE = {
@@ -51,6 +51,13 @@ def _rejected_caption(run: LiveRun) -> str | None:
             )
             parts.append(f"vehicle {sysid}: {text}")
     return "rejected frames: " + "; ".join(parts) if parts else None
+
+
+def _state(view: VehicleView) -> str:
+    """The phase, and what the vehicle waits for in it (``waiting: GPS fix``)."""
+    if not view.detail:
+        return view.phase.value
+    return f"{view.phase.value}: {view.detail}"
 
 
 def _clock(seconds: float) -> str:
@@ -141,7 +148,7 @@ class LiveDisplay:
             table.add_row(
                 str(view.sysid),
                 view.kind,
-                Text(view.phase.value, style=_PHASE_STYLE.get(view.phase, "")),
+                Text(_state(view), style=_PHASE_STYLE.get(view.phase, "")),
                 view.mode,
                 "-" if view.cell is None else f"{view.cell[0]},{view.cell[1]}",
                 battery,

@@ -28,7 +28,6 @@ from gcs.live.sensing import SECTOR_ORIENTATIONS
 from planner.grid import Cell
 from vehicles.clock import Clock
 from vehicles.driving import (
-    DEFAULT_TURN_RADIUS_M,
     SPEED_UP_AND_STOP_S,
     DrivingLimits,
     read_driving_limits,
@@ -43,8 +42,10 @@ from vehicles.telemetry import ObstacleDistances, Position, RangeReading, Topic
 #: A copter this high above home has left the ground (metres).
 CLIMBING_M = 0.1
 #: A car drives straight to a target at most this far off its nose (degrees); one
-#: further off it lines up for first (``Pilot._line_up``).
-CAR_AHEAD_DEG = 30.0
+#: further off it lines up for first (``Pilot._line_up``), backing up at most this
+#: many cells.
+CAR_AHEAD_DEG = 35.0
+CAR_BACK_UP_CELLS = 1.5
 
 
 @dataclass(frozen=True)
@@ -367,11 +368,20 @@ class Pilot:
             with contextlib.suppress(TimeoutError):
                 await self.link.wait_for(Topic.POSITION, lambda _p: True, min(left, 1.0))
 
+    async def line_up(self, cell: Cell) -> None:
+        """Put a car where ``cell`` lies ahead of it (before a route that starts there)."""
+        try:
+            await self._line_up(*self.geo.cell_centre(cell))
+        finally:
+            await self._set_reverse(False)
+
     async def _line_up(self, lat: float, lon: float) -> None:
         """A car cannot turn on the spot, and ArduPilot's car overshoots a target off to
-        its side by metres (seen on SITL). A target behind it is driven to backwards
-        (MAV_CMD_DO_SET_REVERSE); one off to its side, after backing up one turning
-        radius along its heading (back the way it came), whence it lies ahead."""
+        its side by metres (seen on SITL: 1.7 m from a point 2 m beside it). A target
+        behind it is driven to backwards (MAV_CMD_DO_SET_REVERSE); for one off to its
+        side it first backs up along its heading (back the way it came) until the target
+        lies within ``CAR_AHEAD_DEG`` of its nose. On SITL's car this put 17 moves of 17
+        within 0.64 m of the cell centre, against 4 of 12 sent straight."""
         pos = self.position
         if pos is None or pos.heading_deg is None:
             return
@@ -381,7 +391,11 @@ class Pilot:
         await self._set_reverse(True)
         if off >= 180.0 - CAR_AHEAD_DEG:
             return  # straight back to it
-        back = self.limits.turn_radius_m or DEFAULT_TURN_RADIUS_M
+        distance = self.distance_m(pos, lat, lon)
+        ahead = distance * math.cos(math.radians(off))
+        beside = distance * math.sin(math.radians(off))
+        back = beside / math.tan(math.radians(CAR_AHEAD_DEG)) - ahead
+        back = min(back, CAR_BACK_UP_CELLS * self.geo.cell_size_m)
         north, east = self.geo.geo_to_local(pos.lat_deg, pos.lon_deg)
         h = math.radians(pos.heading_deg)
         to = self.geo.local_to_geo(north - back * math.cos(h), east - back * math.sin(h))

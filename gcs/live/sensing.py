@@ -1,34 +1,30 @@
 """Range readings -> the planner's eight neighbour cell states (pure functions).
 
-A vehicle stands at the centre of its cell. DISTANCE_SENSOR gives one range
-per 45-degree sector relative to the heading (orientation NONE = forward,
-YAW_45 ... YAW_315 clockwise); OBSTACLE_DISTANCE gives many narrow sectors
-clockwise from ``angle_offset`` in the body frame. Both are turned into a
-range per compass direction (``compass_ranges_*``), then into cell states
-(``classify``).
+Each reading is a ray: DISTANCE_SENSOR gives one per 45-degree sector relative to
+the heading (orientation NONE = forward, YAW_45 ... YAW_315 clockwise),
+OBSTACLE_DISTANCE many narrow sectors clockwise from ``angle_offset`` in the body
+frame (``rays_from_sensors``, ``rays_from_obstacles``). A ray is followed from
+where the vehicle really stood when it measured: a real vehicle stops anywhere
+inside its cell (ArduPilot Rover up to its WP_RADIUS short of the centre), and
+from half a cell off the centre a wall in the next cell is met where, from the
+centre, a free cell would have let the ray through.
 
-The geometry, in cells from the centre of the vehicle's cell:
+Walls fill whole cells, so what a ray says of a neighbour cell follows from
+where it crosses that cell's square (``neighbour_states``):
 
-* straight ahead a wall in the neighbour cell is met at 0.5, while a free
-  neighbour lets the ray go at least to its far edge at 1.5: below 1.0 is an
-  obstacle, at or above is free;
-* on a diagonal the ray passes the shared corner at 0.71 and, when the
-  diagonal cell is free, reaches its far corner at 1.41. A short diagonal
-  range only says that *one* of the three cells around that corner is a
-  wall, so the diagonal is an obstacle only when both side neighbours are
-  free, and unknown otherwise. The planner never overwrites what it was
-  told, so an unsure reading must be UNKNOWN rather than a guess;
-* OBSTACLE_DISTANCE's narrow sectors settle most of those: a ray a few
-  degrees off the diagonal, on the side of a free neighbour, crosses that
-  neighbour and enters the diagonal cell away from the corner. It stops
-  inside the diagonal cell if that is a wall and goes on past its far edge
-  if it is free (``diagonal_evidence``).
+* a ray that goes right through a neighbour (and on, or stops at its far side)
+  says it is free;
+* a ray that stops where it enters a neighbour says that neighbour is a wall,
+  unless it enters right at a corner, where the wall may be the cell beside it;
+* anything else says nothing, and a neighbour nothing was said of, or of which
+  rays disagree, stays UNKNOWN: the planner never overwrites what it was told,
+  so an unsure reading must be UNKNOWN rather than a guess.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 from planner.grid import Cell, CellState, Direction
@@ -38,209 +34,142 @@ from vehicles.telemetry import ObstacleDistances, RangeReading
 #: DISTANCE_SENSOR orientations of the eight horizontal sectors: MAV_SENSOR_ROTATION_NONE (0)
 #: is forward, YAW_45 (1) ... YAW_315 (7) go clockwise in 45-degree steps.
 SECTOR_ORIENTATIONS = tuple(range(8))
-ORTHOGONAL = (Direction.N, Direction.E, Direction.S, Direction.W)
-#: A diagonal probe ray passing nearer the diagonal cell's corner than this (cells along
-#: the ray) may have been stopped by a side cell: position and range are known to a
-#: centimetre or so, and the vehicle may still be moving a little.
-CORNER_CLEARANCE_CELLS = 0.05
-
-DIAGONAL_SIDES: dict[Direction, tuple[Direction, Direction]] = {
-    Direction.NE: (Direction.N, Direction.E),
-    Direction.SE: (Direction.S, Direction.E),
-    Direction.SW: (Direction.S, Direction.W),
-    Direction.NW: (Direction.N, Direction.W),
-}
 
 
 @dataclass(frozen=True)
 class SensingSettings:
-    #: A straight range at or beyond this many cells means the neighbour is free.
-    free_from_cells: float = 1.0
-    #: A diagonal range at or beyond this many cells means the diagonal cell is free
-    #: (halfway between the near corner, 0.71, and the far one, 1.41).
-    diagonal_free_from_cells: float = (math.sqrt(0.5) + math.sqrt(2.0)) / 2
-    #: A sector counts for a compass direction only if it points within this many degrees.
-    align_tolerance_deg: float = 10.0
-    #: Narrow sectors this far off a diagonal (degrees) are used to settle it.
-    diagonal_probe_deg: tuple[float, float] = (4.0, 30.0)
+    #: How far (cells) a ray's end may be from where it entered a cell and still be
+    #: that cell's wall: ranges come in whole centimetres, and the vehicle may still
+    #: creep a little while it measures.
+    hit_margin_cells: float = 0.04
+    #: A ray must enter a cell this far from its corners (cells) to say it is a wall; one
+    #: that crosses less than 2.5 ``hit_margin_cells`` of a cell says nothing of it.
+    corner_margin_cells: float = 0.05
 
 
 DEFAULT_SENSING = SensingSettings()
 
 
-def _angle_diff(a: float, b: float) -> float:
-    return abs((a - b + 180.0) % 360.0 - 180.0)
-
-
-def _direction_of(bearing_deg: float, tolerance_deg: float) -> Direction | None:
-    """The compass direction a bearing points to, if it is within the tolerance."""
-    best = min(Direction, key=lambda d: _angle_diff(d.heading_deg, bearing_deg))
-    return best if _angle_diff(best.heading_deg, bearing_deg) <= tolerance_deg else None
+#: Where a ray starts: cells east and north of the centre of the vehicle's cell.
+Origin = tuple[float, float]
+CENTRE: Origin = (0.0, 0.0)
 
 
 @dataclass(frozen=True)
-class Range:
-    """One range in a compass direction, with the sensor's limits (metres)."""
+class Ray:
+    """One range along a compass bearing, with the sensor's reach (metres), measured from
+    ``origin`` (where the vehicle stood then)."""
 
+    bearing_deg: float
     distance_m: float
     max_m: float
+    origin: Origin = CENTRE
 
 
-def compass_ranges_from_sensors(
-    heading_deg: float,
-    readings: Mapping[int, RangeReading],
-    settings: SensingSettings = DEFAULT_SENSING,
-) -> dict[Direction, Range]:
-    """DISTANCE_SENSOR readings (by orientation) rotated by the heading into compass directions.
-
-    Orientations other than the eight horizontal sectors (pitch up/down, custom) are ignored,
-    and so is a sector that the heading does not align with a compass direction.
-    """
-    ranges: dict[Direction, Range] = {}
-    for orientation, reading in readings.items():
-        if orientation not in SECTOR_ORIENTATIONS:
-            continue
-        direction = _direction_of(heading_deg + 45.0 * orientation, settings.align_tolerance_deg)
-        if direction is not None:
-            ranges[direction] = Range(reading.distance_m, reading.max_m)
-    return ranges
+def rays_from_sensors(
+    heading_deg: float, readings: Mapping[int, RangeReading], origin: Origin = CENTRE
+) -> list[Ray]:
+    """DISTANCE_SENSOR readings (by orientation) as compass rays. Orientations other than
+    the eight horizontal sectors (pitch up/down, custom) are ignored."""
+    return [
+        Ray((heading_deg + 45.0 * orientation) % 360.0, reading.distance_m, reading.max_m, origin)
+        for orientation, reading in readings.items()
+        if orientation in SECTOR_ORIENTATIONS
+    ]
 
 
-def compass_ranges_from_obstacles(
-    heading_deg: float,
-    obstacles: ObstacleDistances,
-    settings: SensingSettings = DEFAULT_SENSING,
-) -> dict[Direction, Range]:
-    """OBSTACLE_DISTANCE sectors (body frame, clockwise from ``angle_offset``) in compass
-    directions: for each direction the sector pointing closest to it, if close enough.
-    A sector with no measurement (None) gives nothing."""
-    best: dict[Direction, tuple[float, Range]] = {}
+def rays_from_obstacles(
+    heading_deg: float, obstacles: ObstacleDistances, origin: Origin = CENTRE
+) -> list[Ray]:
+    """OBSTACLE_DISTANCE sectors (body frame, clockwise from ``angle_offset``) as compass
+    rays; a sector with no measurement (None) gives none."""
     if obstacles.increment_deg <= 0:
-        return {}
-    for i, distance in enumerate(obstacles.distances_m):
-        if distance is None:
-            continue
-        bearing = heading_deg + obstacles.angle_offset_deg + i * obstacles.increment_deg
-        direction = _direction_of(bearing, settings.align_tolerance_deg)
-        if direction is None:
-            continue
-        error = _angle_diff(direction.heading_deg, bearing)
-        if direction not in best or error < best[direction][0]:
-            best[direction] = (error, Range(min(distance, obstacles.max_m), obstacles.max_m))
-    return {d: r for d, (_, r) in best.items()}
+        return []
+    return [
+        Ray(
+            (heading_deg + obstacles.angle_offset_deg + i * obstacles.increment_deg) % 360.0,
+            min(distance, obstacles.max_m),
+            obstacles.max_m,
+            origin,
+        )
+        for i, distance in enumerate(obstacles.distances_m)
+        if distance is not None
+    ]
 
 
-def diagonal_evidence(
-    heading_deg: float,
-    obstacles: ObstacleDistances,
-    cell_size_m: float,
-    settings: SensingSettings = DEFAULT_SENSING,
-    offset_cells: tuple[float, float] = (0.0, 0.0),
+def neighbour_states(
+    rays: Iterable[Ray], cell_size_m: float, settings: SensingSettings = DEFAULT_SENSING
 ) -> dict[Direction, CellState]:
-    """What the narrow OBSTACLE_DISTANCE sectors near each diagonal say of the diagonal cell.
+    """The eight neighbours' states from rays, each followed from its own origin (see the
+    module's docstring)."""
+    said: dict[Direction, set[CellState]] = {d: set() for d in Direction}
+    for ray in rays:
+        for direction, state in _ray_says(ray, cell_size_m, settings):
+            said[direction].add(state)
+    return {
+        d: next(iter(states)) if len(states) == 1 else CellState.UNKNOWN
+        for d, states in said.items()
+    }
 
-    Each ray is followed from where the sensor is, ``offset_cells`` (east, north) from
-    the cell's centre (a vehicle senses before it has quite stopped): stopping before it
-    enters the diagonal cell says nothing (a side wall), stopping inside says wall,
-    going past the far side says free. Any ray that says wall wins. From the centre a
-    ray at ``phi`` from a side axis enters at ``max(0.5/cos phi, 0.5/sin phi)`` cells
-    and leaves at ``min(1.5/cos phi, 1.5/sin phi)``; a few hundredths of a cell off
-    the centre already move those points enough to turn a side wall into a diagonal one.
-    """
-    low, high = settings.diagonal_probe_deg
-    found: dict[Direction, CellState] = {}
-    if obstacles.increment_deg <= 0:
-        return found
-    margin = 0.02 * cell_size_m
-    for i, distance in enumerate(obstacles.distances_m):
-        if distance is None:
+
+def _ray_says(
+    ray: Ray, cell_size_m: float, settings: SensingSettings
+) -> list[tuple[Direction, CellState]]:
+    start = ray.origin
+    theta = math.radians(ray.bearing_deg)
+    step = (math.sin(theta), math.cos(theta))  # east, north per cell along the ray
+    reach = ray.max_m / cell_size_m
+    hit = ray.distance_m < ray.max_m - 1e-6
+    end = ray.distance_m / cell_size_m if hit else reach
+    margin, corner = settings.hit_margin_cells, settings.corner_margin_cells
+    said: list[tuple[Direction, CellState]] = []
+    for direction in Direction:
+        span = _crossing(start, step, direction)
+        if span is None:
             continue
-        bearing = (heading_deg + obstacles.angle_offset_deg + i * obstacles.increment_deg) % 360
-        for diagonal in DIAGONAL_SIDES:
-            if not low <= _angle_diff(diagonal.heading_deg, bearing) <= high:
-                continue
-            crossing = _crossing(offset_cells, bearing, diagonal)
-            if crossing is None or crossing[2] < CORNER_CLEARANCE_CELLS:
-                continue  # too near the corner to tell the diagonal cell from a side one
-            enter, leave = crossing[0] * cell_size_m, crossing[1] * cell_size_m
-            if distance < enter - margin:
-                continue  # stopped by a side wall before the diagonal cell
-            if distance < leave - margin and distance < obstacles.max_m - 1e-6:
-                found[diagonal] = CellState.OBSTACLE
-            elif distance >= leave - margin:
-                found.setdefault(diagonal, CellState.FREE)
-    return found
+        enter, leave = span
+        if leave - enter < 2.5 * margin:
+            continue  # only grazes a corner of the cell
+        if end >= leave - margin:  # through it, on to its far side at least
+            said.append((direction, CellState.FREE))
+        elif hit and abs(end - enter) <= margin:
+            at = (start[0] + step[0] * enter, start[1] + step[1] * enter)
+            if not _near_corner(at, direction, corner):
+                said.append((direction, CellState.OBSTACLE))
+    return said
+
+
+def _square(direction: Direction) -> tuple[float, float, float, float]:
+    """The neighbour's square, in cells east and north of the vehicle's cell's centre."""
+    row, col = direction.value
+    return col - 0.5, col + 0.5, -row - 0.5, -row + 0.5
 
 
 def _crossing(
-    start: tuple[float, float], bearing_deg: float, diagonal: Direction
-) -> tuple[float, float, float] | None:
-    """Where a ray from ``start`` (cells east, north of the centre) along a compass
-    bearing enters and leaves the ``diagonal`` neighbour cell, and how far (along the
-    ray) from the cell's near corner it passes, in cells; None if it misses the cell."""
-    theta = math.radians(bearing_deg)
+    start: tuple[float, float], step: tuple[float, float], direction: Direction
+) -> tuple[float, float] | None:
+    """Where a ray from ``start`` enters and leaves the neighbour's square (cells along
+    the ray), or None if it misses it."""
+    west, east, south, north = _square(direction)
     enter, leave = 0.0, math.inf
-    near_lines: list[float] = []
-    # Direction values are (rows south, cols east): the cell spans 0.5..1.5 on each axis
-    # on the side the diagonal points to.
-    for position, step, side in (
-        (start[0], math.sin(theta), diagonal.value[1]),
-        (start[1], math.cos(theta), -diagonal.value[0]),
+    for position, speed, low, high in (
+        (start[0], step[0], west, east),
+        (start[1], step[1], south, north),
     ):
-        near, far = (0.5, 1.5) if side > 0 else (-1.5, -0.5)
-        if abs(step) < 1e-12:
-            if not near <= position <= far:
+        if abs(speed) < 1e-12:
+            if not low < position < high:
                 return None
             continue
-        t1, t2 = (near - position) / step, (far - position) / step
+        t1, t2 = (low - position) / speed, (high - position) / speed
         enter, leave = max(enter, min(t1, t2)), min(leave, max(t1, t2))
-        near_lines.append(min(t1, t2))
-    if enter >= leave or len(near_lines) < 2:
-        return None
-    return enter, leave, abs(near_lines[0] - near_lines[1])
+    return (enter, leave) if enter < leave else None
 
 
-def classify(
-    ranges: Mapping[Direction, Range],
-    cell_size_m: float,
-    settings: SensingSettings = DEFAULT_SENSING,
-    diagonals: Mapping[Direction, CellState] | None = None,
-) -> dict[Direction, CellState]:
-    """Cell states of the eight neighbours from ranges measured at the cell's centre.
-
-    A direction without a range, or with a sensor too short to tell, is UNKNOWN, unless
-    ``diagonals`` (``diagonal_evidence``) settles it.
-    """
-    states: dict[Direction, CellState] = dict.fromkeys(Direction, CellState.UNKNOWN)
-    for direction in ORTHOGONAL:
-        states[direction] = _state(ranges.get(direction), settings.free_from_cells * cell_size_m)
-    for direction, sides in DIAGONAL_SIDES.items():
-        state = _state(ranges.get(direction), settings.diagonal_free_from_cells * cell_size_m)
-        if state == CellState.OBSTACLE and not all(states[s] == CellState.FREE for s in sides):
-            state = CellState.UNKNOWN  # the corner may belong to a side wall
-        if state == CellState.UNKNOWN and diagonals:
-            state = diagonals.get(direction, CellState.UNKNOWN)
-        states[direction] = state
-    return states
-
-
-def _state(r: Range | None, free_from_m: float) -> CellState:
-    if r is None:
-        return CellState.UNKNOWN
-    if r.distance_m >= free_from_m:
-        return CellState.FREE
-    if r.distance_m >= r.max_m - 1e-6:
-        return CellState.UNKNOWN  # nothing seen, but the sensor does not reach far enough
-    return CellState.OBSTACLE
-
-
-def merge_ranges(*sources: Mapping[Direction, Range]) -> dict[Direction, Range]:
-    """Ranges from several sensors: the first source that has a direction wins."""
-    merged: dict[Direction, Range] = {}
-    for source in sources:
-        for direction, r in source.items():
-            merged.setdefault(direction, r)
-    return merged
+def _near_corner(at: tuple[float, float], direction: Direction, margin: float) -> bool:
+    west, east, south, north = _square(direction)
+    near_x = min(abs(at[0] - west), abs(at[0] - east)) <= margin
+    near_y = min(abs(at[1] - south), abs(at[1] - north)) <= margin
+    return near_x and near_y
 
 
 def readings_from_map(grid: GridMap, cell: Cell) -> dict[Direction, CellState]:
