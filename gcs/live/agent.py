@@ -358,6 +358,10 @@ class Agent:
 
     async def _arrive(self, cell: Cell, pos: Position) -> None:
         self.view.phase = Phase.SENSING
+        if self.spec.sensing == Sensing.RANGE and not self.pilot.stopped(pos):
+            # Arrived on the vehicle's word while it still brakes: ranges taken on the
+            # move are read from a place known only to a tenth of a cell or so.
+            pos = await self.pilot.wait_stopped(self.settings.pilot.manoeuvre_timeout_s)
         readings = await self._sense(cell, pos)
         await self._observe(cell, pos, readings)
 
