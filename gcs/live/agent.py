@@ -117,7 +117,11 @@ class Agent:
         self.grid = grid
         self.settings = settings or AgentSettings()
         self._odometer_m = 0.0
-        self._estimator_odometer_m = 0.0
+        #: The distance the planner counts (a cell size per move), and how much of it the
+        #: energy estimate has been given.
+        self._planned_m = 0.0
+        self._estimated_m = 0.0
+        self._last_cell: Cell | None = None
         self._lost_reason: str | None = None
         #: The way home failed to upload on this trip: step it instead.
         self._step_home = False
@@ -310,15 +314,18 @@ class Agent:
             await positions.aclose()  # type: ignore[attr-defined]
 
     async def _track_battery(self) -> None:
-        """Feed the energy estimate with each battery update and the distance since."""
+        """Feed the energy estimate with each battery update and the distance since, as
+        the planner counts it (a cell size per move): the planner budgets every way home
+        in those metres, so whatever a vehicle spends beyond them (a car backing up to
+        line up, a copter hovering while it waits) must be in the rate per metre."""
         updates = self.link.stream(Topic.BATTERY)
         try:
             async for battery in updates:
                 assert isinstance(battery, Battery)
                 if battery.remaining_pct is None:
                     continue
-                moved = self._odometer_m - self._estimator_odometer_m
-                self._estimator_odometer_m = self._odometer_m
+                moved = self._planned_m - self._estimated_m
+                self._estimated_m = self._planned_m
                 self.estimator.add(moved, battery.remaining_pct)
                 self.view.battery_pct = battery.remaining_pct
                 self.planner.record.agents[self.id].odometer_m = self._odometer_m
@@ -370,6 +377,9 @@ class Agent:
     ) -> None:
         battery = self.pilot.battery_pct
         battery = 100.0 if battery is None else battery
+        if self._last_cell is not None:
+            self._planned_m += manhattan(self._last_cell, cell) * self.pilot.geo.cell_size_m
+        self._last_cell = cell
         self.view.cell = cell
         self.view.battery_pct = battery
         await self.planner.observe(

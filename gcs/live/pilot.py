@@ -41,6 +41,8 @@ from vehicles.telemetry import ObstacleDistances, Position, RangeReading, Topic
 
 #: A copter this high above home has left the ground (metres).
 CLIMBING_M = 0.1
+#: Real seconds an upload of a flight home may always take (round trips are real time).
+MIN_UPLOAD_REAL_S = 2.0
 #: A car drives straight to a target at most this far off its nose (degrees); one
 #: further off it lines up for first (``Pilot._line_up``), backing up at most this
 #: many cells.
@@ -577,7 +579,9 @@ class Pilot:
         budget_s = self.settings.upload_budget_s
         self._route = None  # a failed upload may leave anything on board
         try:
-            async with asyncio.timeout(self.real_s(budget_s)):
+            # Never less than a few real seconds: the transfer's round trips run in real
+            # time whatever the vehicles' speed-up.
+            async with asyncio.timeout(max(MIN_UPLOAD_REAL_S, self.real_s(budget_s))):
                 await self.link.upload_mission(items)
         except TimeoutError:
             # Hovering while a lossy link crawls through the items costs battery the
