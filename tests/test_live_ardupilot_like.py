@@ -12,7 +12,10 @@ from __future__ import annotations
 
 import asyncio
 import math
+import os
 import socket
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -180,3 +183,26 @@ async def test_sim_flies_every_connection_kind(tmp_path: Path) -> None:
     got = report(out)
     assert code == 0, got
     assert got["complete"] and got["lost_agents"] == 0
+
+
+def test_a_first_run_after_install_loses_no_link(tmp_path: Path) -> None:
+    """numba's cache emptied, as after a fresh install: the planner compiles before any
+    link opens, so no vehicle's link is lost and no GCS failsafe trips while it does."""
+    mission = yard_mission(tmp_path, [{"type": "rover"}, {"type": "copter"}], energy=0.3)
+    out = tmp_path / "live"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba-cache")}
+    argv = ["run", str(mission), "--sim", "--speedup", "25", "--out", str(out)]
+    done = subprocess.run(
+        [sys.executable, "-m", "gcs.cli", *argv, "--time-limit", "900"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=240,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert any((tmp_path / "numba-cache").rglob("*.nbi")), "it compiled afresh"
+    said = done.stdout + done.stderr
+    assert "link lost" not in said
+    assert "Failsafe" not in said
+    assert report(out)["lost_agents"] == 0

@@ -141,7 +141,7 @@ def small_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The demo mission stopped by its time limit: everyone sent home, the log closed."""
     out = tmp_path_factory.mktemp("first")
     done = _gcs(
-        "run", "missions/demo.yaml", "--sim", "--agents", "3", "--speedup", "20",
+        "run", "missions/demo.yaml", "--sim", "--agents", "3", "--speedup", "40",
         "--time-limit", "40", "--quiet", "--out", str(out),
     )  # fmt: skip
     assert done.returncode == 1, done.stderr
@@ -152,7 +152,7 @@ def test_an_aborted_mission_resumed_completes(tmp_path: Path, small_log: Path) -
     first = json.loads((small_log.parent / "report.json").read_text())
     assert not first["complete"] and first["covered_cells"] > 0
     done = _gcs(
-        "run", "missions/demo.yaml", "--sim", "--agents", "3", "--speedup", "20",
+        "run", "missions/demo.yaml", "--sim", "--agents", "3", "--speedup", "40",
         "--resume", str(small_log), "--quiet", "--out", str(tmp_path),
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
@@ -168,7 +168,7 @@ def test_an_aborted_mission_resumed_completes(tmp_path: Path, small_log: Path) -
 
 #: The vehicles' clock in the kill test: fast enough to get far in a few seconds,
 #: slow enough for two processes on a loaded 2-core machine.
-KILL_SPEEDUP = 15.0
+KILL_SPEEDUP = 25.0
 #: Real seconds the first ground station runs before it is killed.
 KILL_AFTER_S = 5.0
 
