@@ -79,7 +79,7 @@ class Vehicle:
 
 CAR = Vehicle("ardurover", "rover", ("rover.parm",), "rover", steering="car")
 SKID = Vehicle("ardurover", "rover-skid", ("rover.parm", "rover-skid.parm"), "rover")
-QUAD = Vehicle("arducopter", "quad", ("copter.parm",), "copter", capacity_mah=1500)
+QUAD = Vehicle("arducopter", "quad", ("copter.parm",), "copter", capacity_mah=2500)
 
 CASES = {
     "rover": [CAR],
@@ -179,7 +179,14 @@ def read_back(instance: int, sysid: int, pad: tuple[float, float]) -> tuple[floa
     try:
         deadline = time.monotonic() + 30
         position = heartbeat = None
+        asked = 0.0
         while (position is None or heartbeat is None) and time.monotonic() < deadline:
+            if time.monotonic() - asked > 2.0:  # this port streams nothing unasked
+                asked = time.monotonic()
+                link.mav.command_long_send(
+                    sysid, 1, mavutil.mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
+                    mavutil.mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, 200_000, 0, 0, 0, 0, 0,
+                )  # fmt: skip
             msg = link.recv_match(blocking=True, timeout=1)
             if msg is None or msg.get_srcSystem() != sysid:
                 continue
