@@ -100,6 +100,10 @@ class PilotSettings:
     ready_wait_s: float = 60.0
     #: Times a rover is brought back onto the pad when it stopped off it.
     park_attempts: int = 3
+    #: Parked means within this share of a cell of the pad's centre (tighter than a move's
+    #: arrival: a pad is smaller than its cell), and below this ground speed (m/s).
+    park_tolerance_cells: float = 0.35
+    parked_m_s: float = 0.05
     #: Real seconds below which no timeout is cut, whatever the speed-up (event loop jitter).
     min_real_timeout_s: float = 0.25
 
@@ -204,14 +208,21 @@ class Pilot:
         radius = self.limits.acceptance_radius_m
         return tolerance if radius is None else min(tolerance, radius)
 
-    def at(self, pos: Position, cell: Cell) -> bool:
+    def at(self, pos: Position, cell: Cell, within_m: float | None = None) -> bool:
         """Inside ``cell`` (and, for a copter, up at cruise height), moving or not."""
-        if self.offset_m(pos, cell) > self.tolerance_m:
+        if self.offset_m(pos, cell) > (self.tolerance_m if within_m is None else within_m):
             return False
         return not self.flies or pos.alt_rel_m >= 0.8 * self.settings.cruise_alt_m
 
     def stopped(self, pos: Position) -> bool:
         return math.hypot(pos.vn_m_s, pos.ve_m_s) < self.settings.stopped_m_s
+
+    def _parked(self, pos: Position) -> bool:
+        return math.hypot(pos.vn_m_s, pos.ve_m_s) < self.settings.parked_m_s
+
+    @property
+    def park_tolerance_m(self) -> float:
+        return min(self.tolerance_m, self.settings.park_tolerance_cells * self.geo.cell_size_m)
 
     async def wait_position(
         self, predicate: Callable[[Position], bool], mission_s: float, what: str = ""
@@ -311,7 +322,7 @@ class Pilot:
         bearing = math.degrees(math.atan2(e1 - e0, n1 - n0))
         return abs((bearing - pos.heading_deg + 180.0) % 360.0 - 180.0)
 
-    async def goto(self, cell: Cell) -> Position:
+    async def goto(self, cell: Cell, within_m: float | None = None) -> Position:
         """Drive or fly to ``cell`` in GUIDED; the position once there: inside the cell,
         stopped or reported there.
 
@@ -320,7 +331,8 @@ class Pilot:
         it reached it, or (a vehicle that reports no target) standing still no nearer;
         or when the move's whole time is up. Each autopilot restarts its path on a new
         target, so a target sent on a timer would keep a rover from ever arriving.
-        A car is lined up first (``_line_up``). ``MoveFailed`` after ``move_attempts``
+        A car is lined up first (``_line_up``). ``within_m``: nearer the centre than
+        the cell's own tolerance (the pad). ``MoveFailed`` after ``move_attempts``
         sends, saying what happened."""
         lat, lon = self.geo.cell_centre(cell)
         why = ""
@@ -330,7 +342,7 @@ class Pilot:
             try:
                 if self.car:
                     await self._line_up(lat, lon)
-                outcome = await self._drive(lat, lon, lambda p: self.at(p, cell))
+                outcome = await self._drive(lat, lon, lambda p: self.at(p, cell, within_m))
             finally:
                 await self._set_reverse(False)
             if isinstance(outcome, Position):
@@ -624,9 +636,9 @@ class Pilot:
             for attempt in range(tries + 1):
                 if self.flight_mode != FlightMode.HOLD:
                     await self.set_mode(FlightMode.HOLD)
-                pos = await self.wait_stopped(wait_s)
+                pos = await self.wait_position(self._parked, wait_s, "stop")
                 off = self.offset_m(pos, pad)
-                if off <= self.tolerance_m:
+                if off <= self.park_tolerance_m:
                     break
                 if attempt == tries:
                     raise MoveFailed(
@@ -634,7 +646,7 @@ class Pilot:
                         f"({off:.2f} m off its centre)"
                     )
                 await self.underway()  # GUIDED: back onto the pad, arriving stopped
-                await self.goto(pad)
+                await self.goto(pad, self.park_tolerance_m)
         await self._disarm(wait_s)
 
     async def _land(self, wait_s: float) -> None:
