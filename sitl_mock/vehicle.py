@@ -609,7 +609,7 @@ class Vehicle:
             if metres <= _EPS_M:
                 break
             exit_m, ahead = self._cell_exit(un, ue)
-            if metres < exit_m:
+            if metres <= exit_m + _EPS_M:
                 self._shift(un, ue, metres)
                 return moved + metres
             blocker = next(
@@ -619,8 +619,8 @@ class Vehicle:
             if blocker is not None:
                 step = max(0.0, exit_m - 1e-6)
                 self._shift(un, ue, step)
-                assert self.drive is not None
-                self.drive.speed_m_s = 0.0
+                if self.drive is not None:
+                    self.drive.speed_m_s = 0.0
                 self._blocked(blocker, dt_s)
                 return moved + step
             self._shift(un, ue, exit_m)
@@ -677,40 +677,15 @@ class Vehicle:
     # ------------------------------------------------------------------ horizontal motion
 
     def _move_horizontally(self, goal: Goal, budget_m: float, dt_s: float) -> float:
-        """Drive toward the goal cell by cell; returns the distance covered."""
+        """Drive straight toward the goal cell by cell; returns the distance covered."""
+        dn, de = goal.north_m - self.north_m, goal.east_m - self.east_m
+        dist = math.hypot(dn, de)
         moved = 0.0
-        for _ in range(10_000):
-            dn, de = goal.north_m - self.north_m, goal.east_m - self.east_m
-            dist = math.hypot(dn, de)
-            if dist <= _EPS_M:
-                self.north_m, self.east_m = goal.north_m, goal.east_m
-                break
-            if budget_m <= _EPS_M:
-                break
-            un, ue = dn / dist, de / dist
-            self.heading_deg = math.degrees(math.atan2(ue, un)) % 360.0
-            exit_m, ahead = self._cell_exit(un, ue)
-            if dist <= exit_m + _EPS_M or budget_m < exit_m:
-                step = min(budget_m, dist)
-                self._shift(un, ue, step)
-                moved += step
-                budget_m -= step
-                continue
-            blocker = next(
-                (b for b in (self.world.blocker(self.id, c) for c in ahead) if b is not None),
-                None,
-            )
-            if blocker is not None:
-                step = max(0.0, exit_m - 1e-6)
-                self._shift(un, ue, step)
-                moved += step
-                self._blocked(blocker, dt_s)
-                break
-            self._shift(un, ue, exit_m)
-            moved += exit_m
-            budget_m -= exit_m
-            self.world.move(self.id, ahead[-1])
-            self._wait_s = 0.0
+        if dist > _EPS_M and budget_m > _EPS_M:
+            self.heading_deg = math.degrees(math.atan2(de, dn)) % 360.0
+            moved = self._advance(self.heading_deg, min(budget_m, dist), dt_s)
+        if math.hypot(goal.north_m - self.north_m, goal.east_m - self.east_m) <= _EPS_M:
+            self.north_m, self.east_m = goal.north_m, goal.east_m
         return moved
 
     def _shift(self, un: float, ue: float, metres: float) -> None:
