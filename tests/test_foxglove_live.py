@@ -128,7 +128,8 @@ async def test_gcs_run_live_is_watched_while_it_flies(tmp_path: Path) -> None:
                 await ws.send(json.dumps({"op": "subscribe", "subscriptions": [subscribe]}))
                 fix = await message_on(ws, 1, lambda m: "latitude" in m)
                 assert fix["frame_id"]
-            assert await process.wait() == 0
+            rest = (await process.stderr.read()).decode()
+            assert await process.wait() == 0, rest
     finally:
         if process.returncode is None:
             process.kill()

@@ -12,11 +12,14 @@ from hypothesis import strategies as st
 
 from gcs.live.energy import EnergyEstimator, EnergySettings, model_prior
 from gcs.live.sensing import (
+    Pose,
     Ray,
     neighbour_states,
+    pose_at,
     rays_from_obstacles,
     rays_from_sensors,
     readings_from_map,
+    still_between,
 )
 from planner.grid import CellState, Direction
 from sitl_mock.maps import make_map
@@ -133,6 +136,55 @@ def test_from_anywhere_in_the_cell_no_neighbour_is_called_what_it_is_not(
     truth = readings_from_map(g, cell)
     for d, s in states.items():
         assert s in (truth[d], UNKNOWN), (rows, heading, east, north, d)
+
+
+@settings(max_examples=1000, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    heading=st.floats(0.0, 360.0, exclude_max=True),
+    east=st.floats(-0.45, 0.45),
+    north=st.floats(-0.45, 0.45),
+    error_east=st.floats(-0.03, 0.03),
+    error_north=st.floats(-0.03, 0.03),
+)
+def test_a_place_known_to_a_few_centimetres_calls_no_wall_free(
+    seed: int,
+    heading: float,
+    east: float,
+    north: float,
+    error_east: float,
+    error_north: float,
+) -> None:
+    """The reported place is a few centimetres off where the ranges were taken (a report
+    and the readings are not taken at the same instant): a ray that cuts a corner must
+    not make a wall free, nor a free cell a wall."""
+    rows = random_room(random.Random(seed))
+    g = grid(rows)
+    cell = (3, 3)
+    if not g.is_free(cell):
+        return
+    north_m, east_m = -(cell[0] + 0.5) + north, cell[1] + 0.5 + east
+    ranges = [round(r, 2) for r in sector_distances_m(g, 1.0, north_m, east_m, heading, 72, 10.0)]
+    obs = ObstacleDistances(tuple(ranges), 5.0, 0.0, 0.1, 10.0, 12, 0)
+    believed = (east + error_east, north + error_north)
+    states = neighbour_states(rays_from_obstacles(heading, obs, believed), 1.0)
+    truth = readings_from_map(g, cell)
+    for d, s in states.items():
+        assert s in (truth[d], UNKNOWN), (rows, heading, east, north, d)
+
+
+def test_a_reading_is_placed_between_the_poses_around_it() -> None:
+    """Ranges are placed where the vehicle was when it took them, on the line between the
+    positions reported before and after (a braking rover still creeps), the heading
+    turning the short way round north; a vehicle that turned more than a couple of
+    degrees in between did not hold its sensors still."""
+    before, after = Pose(0.0, 0.0, 359.0, 1000), Pose(0.1, -0.2, 1.0, 1400)
+    mid = pose_at(before, after, 1100)
+    assert (mid.north_m, mid.east_m) == pytest.approx((0.025, -0.05))
+    assert mid.heading_deg == pytest.approx(359.5)
+    assert pose_at(before, after, 2000).north_m == pytest.approx(0.1)  # clamped
+    assert still_between(before, after)
+    assert not still_between(before, Pose(0.0, 0.0, 5.0, 1400))
 
 
 def test_half_a_cell_off_the_centre_the_axes_are_still_settled() -> None:

@@ -39,10 +39,14 @@ from gcs.live.charging import ChargeSettings, PadStay
 from gcs.live.energy import EnergyEstimator
 from gcs.live.pilot import Pilot, PilotSettings
 from gcs.live.sensing import (
+    Pose,
+    Ray,
     neighbour_states,
+    pose_at,
     rays_from_obstacles,
     rays_from_sensors,
     readings_from_map,
+    still_between,
 )
 from gcs.live.shared import Level, Phase, SharedPlanner, VehicleView
 from gcs.mission import Sensing, VehicleSpec
@@ -57,8 +61,8 @@ from vehicles.telemetry import Battery, Position, Topic
 log = logging.getLogger(__name__)
 
 _FOREVER_S = 1e9
-#: Longest time a position is carried on at its velocity to where a reading was taken.
-SENSOR_EXTRAPOLATION_S = 0.5
+#: Range readings asked for again at most this often when the vehicle turned while taking them.
+SENSING_TRIES = 4
 _WARNING_SEVERITY = 4  # MAV_SEVERITY_WARNING
 
 
@@ -389,38 +393,45 @@ class Agent:
     async def _sense(self, cell: Cell, pos: Position) -> dict[Direction, CellState]:
         if self.spec.sensing == Sensing.MAP:
             return readings_from_map(self.grid, cell)
-        ranges, obstacles = await self.pilot.ranges_since(pos.time_boot_ms)
-        heading = pos.heading_deg
-        if heading is None:
-            return {}
-        # Each reading from where the vehicle was when it took it (it may still creep).
-        rays = [
-            ray
-            for orientation, reading in ranges.items()
-            for ray in rays_from_sensors(
-                heading, {orientation: reading}, self._sensor_offset(cell, reading.time_boot_ms)
-            )
-        ]
-        if obstacles:
-            at = self._sensor_offset(cell, obstacles.time_usec // 1000)
-            rays += rays_from_obstacles(heading, obstacles, at)
-        return neighbour_states(rays, self.pilot.geo.cell_size_m)
+        pilot = self.pilot
+        for _ in range(SENSING_TRIES):
+            ranges, obstacles = await pilot.ranges_since(pos.time_boot_ms)
+            taken = [r.time_boot_ms for r in ranges.values()]
+            if obstacles is not None:
+                taken.append(obstacles.time_usec // 1000)
+            if not taken:
+                return {}
+            # A reading is placed between the positions reported before and after it; a
+            # vehicle that turned in between (braking rovers swing) measured from a pose
+            # not known well enough, and is read again.
+            after = await pilot.position_after(max(taken))
+            before, pose_after = pilot.pose_of(pos), pilot.pose_of(after)
+            if before is None or pose_after is None:
+                return {}  # no heading: the rays cannot be pointed
+            if not still_between(before, pose_after):
+                pos = after
+                continue
+            rays: list[Ray] = []
+            for orientation, reading in ranges.items():
+                heading, at = self._sensor_pose(cell, before, pose_after, reading.time_boot_ms)
+                rays += rays_from_sensors(heading, {orientation: reading}, at)
+            if obstacles is not None:
+                heading, at = self._sensor_pose(
+                    cell, before, pose_after, obstacles.time_usec // 1000
+                )
+                rays += rays_from_obstacles(heading, obstacles, at)
+            return neighbour_states(rays, pilot.geo.cell_size_m)
+        return {}  # never still while it measured: nothing is said of the neighbours
 
-    def _sensor_offset(self, cell: Cell, at_ms: int) -> tuple[float, float]:
-        """Where the vehicle was when it took readings at ``at_ms``, in cells east and north
-        of the centre of ``cell``: its latest position, carried on at its velocity to that
-        time (a vehicle still braking has moved on a little)."""
-        geo = self.pilot.geo
-        pos = self.pilot.position
-        assert pos is not None
-        north, east = geo.geo_to_local(pos.lat_deg, pos.lon_deg)
-        dt_s = max(
-            -SENSOR_EXTRAPOLATION_S, min(SENSOR_EXTRAPOLATION_S, (at_ms - pos.time_boot_ms) / 1000)
-        )
-        north, east = north + pos.vn_m_s * dt_s, east + pos.ve_m_s * dt_s
-        centre_n, centre_e = geo.cell_centre_local(cell)
-        size = geo.cell_size_m
-        return ((east - centre_e) / size, (north - centre_n) / size)
+    def _sensor_pose(
+        self, cell: Cell, before: Pose, after: Pose, at_ms: int
+    ) -> tuple[float, tuple[float, float]]:
+        """The heading and the place (cells east and north of ``cell``'s centre) of the
+        vehicle at ``at_ms``, between two reported poses."""
+        pose = pose_at(before, after, at_ms)
+        centre_n, centre_e = self.pilot.geo.cell_centre_local(cell)
+        size = self.pilot.geo.cell_size_m
+        return pose.heading_deg, ((pose.east_m - centre_e) / size, (pose.north_m - centre_n) / size)
 
     def _swept(self, cells: list[Cell]) -> bool:
         """Every cell already covered. Flown over in AUTO, a cell is observed without

@@ -24,7 +24,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from gcs.live.sensing import SECTOR_ORIENTATIONS
+from gcs.live.sensing import SECTOR_ORIENTATIONS, Pose
 from planner.grid import Cell
 from vehicles.clock import Clock
 from vehicles.driving import (
@@ -58,6 +58,10 @@ class Route:
     first_seq: int
     #: Uploaded now (False: the rest of the one on board, resumed).
     uploaded: bool
+
+
+#: A reading stamped this much later than the latest position is on another clock.
+_OTHER_CLOCK_MS = 60_000
 
 
 @dataclass(frozen=True)
@@ -214,6 +218,13 @@ class Pilot:
             return False
         return not self.flies or pos.alt_rel_m >= 0.8 * self.settings.cruise_alt_m
 
+    def pose_of(self, pos: Position) -> Pose | None:
+        """A position in the local frame, or None without a heading."""
+        if pos.heading_deg is None:
+            return None
+        north, east = self.geo.geo_to_local(pos.lat_deg, pos.lon_deg)
+        return Pose(north, east, pos.heading_deg, pos.time_boot_ms)
+
     def stopped(self, pos: Position) -> bool:
         return math.hypot(pos.vn_m_s, pos.ve_m_s) < self.settings.stopped_m_s
 
@@ -237,6 +248,19 @@ class Pilot:
         except TimeoutError:
             waited = f"{what} " if what else "a position "
             raise TimeoutError(f"no {waited}within {mission_s:g} s") from None
+
+    async def position_after(self, time_ms: int) -> Position:
+        """The first position the vehicle reports at or after ``time_ms`` (its boot time).
+        A time far beyond the latest position is on another clock (MAVLink lets a
+        sensor stamp UNIX time): then simply the next position."""
+        latest = self.position
+        if latest is not None and time_ms > latest.time_boot_ms + _OTHER_CLOCK_MS:
+            time_ms = latest.time_boot_ms + 1
+        return await self.wait_position(
+            lambda p: p.time_boot_ms >= time_ms,
+            self.settings.sensing_timeout_s,
+            f"position after {time_ms} ms",
+        )
 
     async def wait_stopped(self, mission_s: float) -> Position:
         return await self.wait_position(self.stopped, mission_s, "stop")

@@ -7,15 +7,17 @@ frame (``rays_from_sensors``, ``rays_from_obstacles``). A ray is followed from
 where the vehicle really stood when it measured: a real vehicle stops anywhere
 inside its cell (ArduPilot Rover up to its WP_RADIUS short of the centre), and
 from half a cell off the centre a wall in the next cell is met where, from the
-centre, a free cell would have let the ray through.
+centre, a free cell would have let the ray through. Where the vehicle stood is known
+only to a few centimetres, so a ray must say a thing clearly enough that such an
+error cannot turn it into the opposite.
 
 Walls fill whole cells, so what a ray says of a neighbour cell follows from
 where it crosses that cell's square (``neighbour_states``):
 
-* a ray that goes right through a neighbour (and on, or stops at its far side)
+* a ray that goes right through a neighbour's inside (its square shrunk a little)
   says it is free;
 * a ray that stops where it enters a neighbour says that neighbour is a wall,
-  unless it enters right at a corner, where the wall may be the cell beside it;
+  unless it enters near a corner, where the wall may be the cell beside it;
 * anything else says nothing, and a neighbour nothing was said of, or of which
   rays disagree, stays UNKNOWN: the planner never overwrites what it was told,
   so an unsure reading must be UNKNOWN rather than a guess.
@@ -44,7 +46,12 @@ class SensingSettings:
     hit_margin_cells: float = 0.04
     #: A ray must enter a cell this far from its corners (cells) to say it is a wall; one
     #: that crosses less than 2.5 ``hit_margin_cells`` of a cell says nothing of it.
-    corner_margin_cells: float = 0.05
+    corner_margin_cells: float = 0.12
+    #: A ray says a neighbour is free only if it crosses the neighbour's square shrunk by
+    #: this much (cells) on every side: seen from a place known to less than that, the
+    #: real ray then went through the neighbour's inside, which a wall would have stopped.
+    #: A ray that only cuts a corner says nothing of it.
+    free_inset_cells: float = 0.06
 
 
 DEFAULT_SENSING = SensingSettings()
@@ -64,6 +71,45 @@ class Ray:
     distance_m: float
     max_m: float
     origin: Origin = CENTRE
+
+
+@dataclass(frozen=True)
+class Pose:
+    """Where a vehicle reported itself (local metres), its heading, and when (boot ms)."""
+
+    north_m: float
+    east_m: float
+    heading_deg: float
+    time_ms: int
+
+
+#: Between the poses that bracket a range reading, a vehicle that turned more than this
+#: (degrees) is not known to have pointed its sensors anywhere in particular: a ray off
+#: by a few degrees passes a corner where the real one met the wall.
+STILL_HEADING_DEG = 2.0
+
+
+def still_between(before: Pose, after: Pose) -> bool:
+    """Whether the vehicle held its heading between two poses."""
+    return abs(_turn_deg(before.heading_deg, after.heading_deg)) <= STILL_HEADING_DEG
+
+
+def pose_at(before: Pose, after: Pose, time_ms: int) -> Pose:
+    """The pose at ``time_ms`` on the straight line between two reported poses (clamped
+    to them)."""
+    span = after.time_ms - before.time_ms
+    f = 0.0 if span <= 0 else min(1.0, max(0.0, (time_ms - before.time_ms) / span))
+    turn = _turn_deg(before.heading_deg, after.heading_deg)
+    return Pose(
+        before.north_m + f * (after.north_m - before.north_m),
+        before.east_m + f * (after.east_m - before.east_m),
+        (before.heading_deg + f * turn) % 360.0,
+        time_ms,
+    )
+
+
+def _turn_deg(start: float, end: float) -> float:
+    return (end - start + 180.0) % 360.0 - 180.0
 
 
 def rays_from_sensors(
@@ -130,8 +176,9 @@ def _ray_says(
         enter, leave = span
         if leave - enter < 2.5 * margin:
             continue  # only grazes a corner of the cell
-        if end >= leave - margin:  # through it, on to its far side at least
-            said.append((direction, CellState.FREE))
+        inside = _crossing(start, step, direction, settings.free_inset_cells)
+        if inside is not None and end - margin >= inside[1]:
+            said.append((direction, CellState.FREE))  # right through its inside
         elif hit and abs(end - enter) <= margin:
             at = (start[0] + step[0] * enter, start[1] + step[1] * enter)
             if not _near_corner(at, direction, corner):
@@ -139,18 +186,20 @@ def _ray_says(
     return said
 
 
-def _square(direction: Direction) -> tuple[float, float, float, float]:
-    """The neighbour's square, in cells east and north of the vehicle's cell's centre."""
+def _square(direction: Direction, inset: float = 0.0) -> tuple[float, float, float, float]:
+    """The neighbour's square (shrunk by ``inset`` on every side), in cells east and north
+    of the vehicle's cell's centre."""
     row, col = direction.value
-    return col - 0.5, col + 0.5, -row - 0.5, -row + 0.5
+    half = 0.5 - inset
+    return col - half, col + half, -row - half, -row + half
 
 
 def _crossing(
-    start: tuple[float, float], step: tuple[float, float], direction: Direction
+    start: tuple[float, float], step: tuple[float, float], direction: Direction, inset: float = 0.0
 ) -> tuple[float, float] | None:
-    """Where a ray from ``start`` enters and leaves the neighbour's square (cells along
-    the ray), or None if it misses it."""
-    west, east, south, north = _square(direction)
+    """Where a ray from ``start`` enters and leaves the neighbour's square (shrunk by
+    ``inset``), in cells along the ray, or None if it misses it."""
+    west, east, south, north = _square(direction, inset)
     enter, leave = 0.0, math.inf
     for position, speed, low, high in (
         (start[0], step[0], west, east),
