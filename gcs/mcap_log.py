@@ -22,10 +22,11 @@ mission's geographic origin names.
 from __future__ import annotations
 
 import base64
+import contextlib
 import json
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any
@@ -430,9 +431,15 @@ class McapMissionLog:
         scene_period_s: float = 5.0,
         scene_fraction: float = 0.05,
         live: LiveView | None = None,
+        on_failure: Callable[[str], None] | None = None,
     ) -> None:
         """``path`` None writes no file: the messages go to ``live`` only (a Foxglove
-        live view, which gets every message but the raw MAVLink ones)."""
+        live view, which gets every message but the raw MAVLink ones).
+
+        Writing the log is never flying: a write that fails (a full disk, a file
+        system gone) ends the file where it is, is told once to ``on_failure`` and
+        kept in ``failure``; every later call returns quietly, and the live view goes
+        on. The file then has no summary, and ``gcs report`` reads it as cut."""
         self.path = None if path is None else Path(path)
         self._file: IO[bytes] | None = None
         self._writer: Writer | None = None
@@ -460,6 +467,9 @@ class McapMissionLog:
         self._last_t = 0.0
         self._sequence = 0
         self._closed = False
+        #: Why and when (mission seconds) the file stopped being written, if it did.
+        self.failure: str | None = None
+        self.on_failure = on_failure
         self._write_meta(mission_name, charger, reserve_pct)
 
     # -------------------------------------------------------------- plumbing
@@ -491,13 +501,30 @@ class McapMissionLog:
         writer = self._writer
         if writer is None:
             return
-        channel = self._channel(writer, topic, schema, "json" if schema else RAW_ENCODING)
-        ns = max(0, round(t_s * 1e9))
-        self._sequence += 1
-        writer.add_message(channel, ns, data, ns, self._sequence)
+        try:
+            channel = self._channel(writer, topic, schema, "json" if schema else RAW_ENCODING)
+            ns = max(0, round(t_s * 1e9))
+            self._sequence += 1
+            writer.add_message(channel, ns, data, ns, self._sequence)
+        except Exception as exc:  # whatever breaks the file must not reach the caller
+            self._fail(exc)
+            return
         now = time.monotonic()
         if now - self._last_flush >= self._flush_s:
             self.flush()
+
+    def _fail(self, exc: BaseException) -> None:
+        """Stop writing the file (keep what reached it) and say so once."""
+        if self.failure is not None:
+            return
+        reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+        self.failure = f"the log stopped at mission time {self._last_t:.1f} s: {reason}"
+        self._writer = None
+        if self._file is not None:
+            with contextlib.suppress(Exception):
+                self._file.close()
+        if self.on_failure is not None:
+            self.on_failure(self.failure)
 
     def _json(self, topic: str, schema: str, t_s: float, message: dict[str, Any]) -> None:
         self._write(topic, schema, t_s, json.dumps(message, separators=(",", ":")).encode())
@@ -506,7 +533,12 @@ class McapMissionLog:
         """Close the current chunk and hand it to the OS: a crash after this loses nothing."""
         if self._closed or self._writer is None:
             return
-        self._writer.flush()
+        try:
+            self._writer.flush()
+            if self._file is not None:
+                self._file.flush()
+        except Exception as exc:
+            self._fail(exc)
         self._last_flush = time.monotonic()
 
     def _write_meta(self, mission: str, charger: Cell, reserve_pct: float) -> None:
@@ -728,10 +760,13 @@ class McapMissionLog:
             if self._writer is not None and self._file is not None:
                 self._writer.finish()
                 self._file.flush()
+        except Exception as exc:
+            self._fail(exc)
         finally:
             self._closed = True
             if self._file is not None:
-                self._file.close()
+                with contextlib.suppress(Exception):
+                    self._file.close()
 
     def __enter__(self) -> McapMissionLog:
         return self

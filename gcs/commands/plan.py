@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 from pathlib import Path
 
 from rich.console import Console
@@ -130,11 +131,26 @@ def run(args: argparse.Namespace) -> int:
     log = open_log(mission, args.out) if args.out else None
     options = SimOptions(seed=args.seed, settings=settings, timed=args.timed)
     result = simulate_with_progress(mission, options, errors, log)
+    if log is not None and log.failure is not None:  # simulate closed it
+        print(f"gcs plan: warning: {log.failure}", file=sys.stderr)
     print_summary(result, console)
     if args.out:
-        write_outputs(result, args.out)
-        console.print(f"wrote {args.out}/report.json, figures and {LOG_NAME}")
+        save_outputs(result, args.out, console, "plan")
     return EXIT_OK if result.complete else EXIT_FAILED
+
+
+def save_outputs(result: RunResult, out: Path, console: Console, command: str) -> None:
+    """report.json and the figures; one that cannot be written is a warning (the run's
+    outcome is what it is whatever the disk says)."""
+    try:
+        write_outputs(result, out)
+    except (OSError, UsageError) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc)
+        print(
+            f"gcs {command}: warning: outputs not all written to {out}: {reason}", file=sys.stderr
+        )
+        return
+    console.print(f"wrote {out}/report.json, figures and {LOG_NAME}")
 
 
 def open_log(mission: Mission, out: Path | None, live: LiveView | None = None) -> McapMissionLog:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from rich.console import Console
 
-from gcs.commands.plan import LOG_NAME, load, open_log, write_outputs
+from gcs.commands.plan import LOG_NAME, load, open_log, save_outputs
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
 from gcs.foxglove_live import DEFAULT_PORT, LiveView, LiveViewError
 from gcs.foxglove_live import HOST as LIVE_HOST
@@ -27,7 +27,8 @@ from gcs.live.agent import AgentSettings
 from gcs.live.display import LiveDisplay
 from gcs.live.mission import LiveOptions, MissionRefused, SimFaults, run_live
 from gcs.live.resume import ResumeError, load_resume_point
-from gcs.mcap_log import SCHEMAS
+from gcs.live.shared import Level
+from gcs.mcap_log import SCHEMAS, McapMissionLog
 from gcs.mission import Mission
 from gcs.mission_log import MissionLog, NullLog
 from gcs.preflight import check_range
@@ -295,6 +296,10 @@ def run(args: argparse.Namespace) -> int:
         # Also with --quiet: the operator asked for it, and needs the address.
         print(f"gcs run: Foxglove live view at {live.url}", file=sys.stderr, flush=True)
     display = LiveDisplay(quiet=args.quiet, console=console)
+    if isinstance(mission_log, McapMissionLog):
+        mission_log.on_failure = lambda text: display.notify(
+            f"{text}; the mission flies on (Ctrl-C brings every vehicle home)", Level.WARNING, None
+        )
     try:
         result, interrupted = asyncio.run(_main(mission, options, mission_log, display))
     except MissionRefused as exc:
@@ -306,9 +311,11 @@ def run(args: argparse.Namespace) -> int:
             live.close()
     console.print()
     print_summary(result, console)
+    failure = getattr(mission_log, "failure", None)
+    if failure is not None:
+        print(f"gcs run: warning: {failure}; the mission flew on", file=sys.stderr)
     if args.out:
-        write_outputs(result, args.out)
-        console.print(f"wrote {args.out}/report.json, figures and {LOG_NAME}")
+        save_outputs(result, args.out, console, "run")
     if interrupted:
         return EXIT_INTERRUPTED
     return EXIT_OK if result.complete else EXIT_FAILED
