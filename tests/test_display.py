@@ -14,8 +14,8 @@ def test_title_tells_covering_from_going_home_and_from_an_abort() -> None:
         mission=SimpleNamespace(name="demo"), planner=planner, elapsed_s=20.0, aborted=False
     )
     title = LiveDisplay(quiet=True)._title
-    assert title(run) == "demo: 10/40 cells (25%), mission time 0:20, ~1:00 to cover the rest"
+    assert title(run).plain == "demo: 10/40 cells (25%), mission time 0:20, ~1:00 to cover the rest"
     run.aborted = True
-    assert title(run).endswith(", aborted, going home")
+    assert title(run).plain.endswith(", aborted, going home")
     run.aborted, coordinator.coverage_complete = False, True
-    assert title(run).endswith(", coverage complete, going home")
+    assert title(run).plain.endswith(", coverage complete, going home")

@@ -4,15 +4,25 @@ operator would make it, and asserts the safe outcome."""
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import subprocess
 import sys
+import unicodedata
 from pathlib import Path
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+from rich.console import Console
 
+from gcs.live.display import LiveDisplay
+from gcs.live.shared import Level
 from tests.test_live_mission import SMALL, write_mission
+from vehicles.printable import printable
+from vehicles.telemetry import StatusText, TelemetryCache
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -57,3 +67,49 @@ def test_a_plan_whose_log_cannot_be_written_is_still_a_plan(tmp_path: Path) -> N
     assert done.returncode == 0, done.stderr
     assert "warning: the log stopped at" in done.stderr
     assert json.loads((out / "report.json").read_text())["complete"]
+
+
+# -- text from a vehicle -----------------------------------------------------------------
+
+HOSTILE_TEXTS = (
+    "\x1b[2J\x1b[Hcleared",  # clears the operator's terminal
+    "[link=http://evil.example]click[/link]",  # Rich markup: a link
+    "[/bogus] and what follows",  # Rich markup that does not close
+    "ok\u202eenil a nrut",  # a right-to-left override
+    "two\nlines\rforged",
+)
+
+
+def _statustext_on_the_wire(text: str) -> StatusText:
+    codec = mavlink.MAVLink(None, 1, 1)
+    frame = codec.statustext_encode(mavlink.MAV_SEVERITY_WARNING, text.encode()[:50]).pack(codec)
+    message = mavlink.MAVLink(None).parse_buffer(bytes(frame))[0]
+    cache = TelemetryCache()
+    update = cache.update(message)
+    assert update is not None
+    return update[1]
+
+
+@pytest.mark.parametrize("text", HOSTILE_TEXTS)
+def test_a_vehicles_text_reaches_the_operator_printable(text: str) -> None:
+    """No control, format or line-breaking character survives the decoding of a
+    STATUSTEXT, and the display prints markup as the characters it is."""
+    got = _statustext_on_the_wire(text).text
+    assert all(not unicodedata.category(c).startswith("C") for c in got), repr(got)
+    assert "\n" not in got and "\r" not in got
+    display = LiveDisplay(quiet=True)
+    display.errors = Console(file=io.StringIO(), force_terminal=True, width=200)
+    for _ in range(2):  # the second one is still shown: nothing was swallowed
+        display.notify(got, Level.ERROR, 1)
+    shown = display.errors.file.getvalue()  # type: ignore[attr-defined]
+    assert shown.count(f"error: {got}") == 2, repr(shown)
+    assert "\x1b]8;" not in shown  # no terminal hyperlink was made
+
+
+@given(st.text(max_size=300))
+def test_printable_leaves_nothing_a_terminal_acts_on(text: str) -> None:
+    got = printable(text)
+    assert len(got) <= 200
+    assert all(
+        c == " " or not (c.isspace() or unicodedata.category(c).startswith("C")) for c in got
+    )

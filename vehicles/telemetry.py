@@ -21,6 +21,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from vehicles.models import VehicleProfile, profile_from_heartbeat
 from vehicles.modes import FlightMode
+from vehicles.printable import printable
 
 Message = mavlink.MAVLink_message
 UINT16_MAX = 65535
@@ -302,7 +303,7 @@ class TelemetryCache:
         text = msg.text
         if isinstance(text, bytes):
             text = text.decode("utf-8", errors="replace")
-        self.statustext = StatusText(severity=msg.severity, text=text.rstrip("\x00"))
+        self.statustext = StatusText(severity=msg.severity, text=printable(text.rstrip("\x00")))
         return Topic.STATUSTEXT, self.statustext
 
     def _on_gps_raw_int(self, msg: Message) -> tuple[Topic, Any]:

@@ -85,7 +85,7 @@ class LiveDisplay:
         self.messages.append((level, text))
         if self.quiet:
             if level == Level.ERROR:
-                self.errors.print(f"error: {text}", highlight=False)
+                self.errors.print(Text(f"error: {text}"), highlight=False)
             return
         stamp = _clock(self.run.elapsed_s) if self.run is not None else "-:--"
         line = Text(f"[{stamp}] {text}", style=_LEVEL_STYLE[level])
@@ -157,11 +157,11 @@ class LiveDisplay:
             )
         return table
 
-    def _title(self, run: LiveRun) -> str:
+    def _title(self, run: LiveRun) -> Text:
         planner = run.planner
         elapsed = run.elapsed_s
         if planner is None:
-            return f"{run.mission.name}: getting ready"
+            return Text(f"{run.mission.name}: getting ready")
         record = planner.record
         covered = planner.coordinator.belief.covered_count
         free = max(1, record.free_cells)
@@ -173,7 +173,7 @@ class LiveDisplay:
             left = "coverage complete, going home"
         elif covered > 1 and elapsed > 0:
             left = f"~{_clock((free - covered) * elapsed / covered)} to cover the rest"
-        return (
+        return Text(
             f"{run.mission.name}: {covered}/{free} cells ({pct:.0f}%), "
             f"mission time {_clock(elapsed)}, {left}"
         )
