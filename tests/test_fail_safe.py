@@ -4,8 +4,10 @@ operator would make it, and asserts the safe outcome."""
 
 from __future__ import annotations
 
+import asyncio
 import io
 import json
+import math
 import os
 import subprocess
 import sys
@@ -20,9 +22,14 @@ from rich.console import Console
 
 from gcs.live.display import LiveDisplay
 from gcs.live.shared import Level
+from tests.test_link_commands import connected
+from tests.test_link_fake import FakeOptions, FakeVehicle
 from tests.test_live_mission import SMALL, write_mission
+from vehicles.errors import MissionError
+from vehicles.link import VehicleLink
+from vehicles.mission_items import MissionItem
 from vehicles.printable import printable
-from vehicles.telemetry import StatusText, TelemetryCache
+from vehicles.telemetry import StatusText, TelemetryCache, Topic
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -113,3 +120,100 @@ def test_printable_leaves_nothing_a_terminal_acts_on(text: str) -> None:
     assert all(
         c == " " or not (c.isspace() or unicodedata.category(c).startswith("C")) for c in got
     )
+
+
+# -- values no vehicle can have ----------------------------------------------------------
+
+
+def _sys_status(remaining: int) -> mavlink.MAVLink_message:
+    return mavlink.MAVLink_sys_status_message(0, 0, 0, 500, 12000, 100, remaining, 0, 0, 0, 0, 0, 0)
+
+
+def _position(lat_e7: int, lon_e7: int, vx_cm_s: int = 0) -> mavlink.MAVLink_message:
+    return mavlink.MAVLink_global_position_int_message(1000, lat_e7, lon_e7, 0, 0, vx_cm_s, 0, 0, 0)
+
+
+IMPLAUSIBLE = (
+    pytest.param(_sys_status(-100), id="battery -100 %"),
+    pytest.param(_sys_status(127), id="battery 127 %"),
+    pytest.param(_position(2_000_000_000, 85_000_000), id="latitude 200 degrees"),
+    pytest.param(_position(473_000_000, -2_000_000_000), id="longitude -200 degrees"),
+    pytest.param(_position(473_000_000, 85_000_000, 30_000), id="300 m/s"),
+    pytest.param(
+        mavlink.MAVLink_home_position_message(900_000_001, 0, 0, 0, 0, 0, [1, 0, 0, 0], 0, 0, 0),
+        id="home beyond the pole",
+    ),
+)
+
+
+@pytest.mark.parametrize("bad", IMPLAUSIBLE)
+async def test_telemetry_out_of_physical_range_is_refused_and_counted(
+    bad: mavlink.MAVLink_message,
+) -> None:
+    """A vehicle (or anyone speaking for it) sends a value no vehicle can have: the link
+    keeps the last plausible value, counts the refusal, and stays up."""
+    async with connected() as (fake, link):
+        await _sent_and_seen(fake, link, _position(473_000_000, 85_000_000), Topic.POSITION)
+        await _sent_and_seen(fake, link, _sys_status(80), Topic.BATTERY)
+        before = (link.telemetry.battery, link.telemetry.position, link.telemetry.home)
+        for _ in range(3):
+            fake.send(bad, lossless=True)
+        # A plausible message sent after them is taken: they were handled (and refused).
+        await _sent_and_seen(fake, link, _sys_status(79), Topic.BATTERY)
+        assert link.rejected.implausible == 3
+        assert link.telemetry.position == before[1] and link.telemetry.home == before[2]
+        assert link.telemetry.battery.remaining_pct == 79.0
+        assert link.is_up
+
+
+async def _sent_and_seen(
+    fake: FakeVehicle, link: VehicleLink, msg: mavlink.MAVLink_message, topic: Topic
+) -> None:
+    seen = asyncio.ensure_future(link.wait_for(topic, lambda _v: True, 2.0))
+    await asyncio.sleep(0)  # subscribed before it is sent
+    fake.send(msg, lossless=True)
+    await seen
+
+
+# -- hostile mission files and items -----------------------------------------------------
+
+WPL_HEADER = "QGC WPL 110"
+HOME = "0\t1\t0\t16\t0\t0\t0\t0\t47.3977\t8.5456\t488\t1"
+
+
+@pytest.mark.parametrize(
+    "item",
+    [
+        pytest.param("1\t0\t3\t16\t0\t0\t0\t0\tinf\t8.5456\t10\t1", id="infinite latitude"),
+        pytest.param("1\t0\t3\t16\t0\t0\t0\t0\t1000\t8.5456\t10\t1", id="latitude 1000"),
+        pytest.param("1\t0\t3\t99999\t0\t0\t0\t0\t47.3\t8.5\t10\t1", id="command 99999"),
+        pytest.param("1\t0\t3\t16\t1e300\t0\t0\t0\t47.3\t8.5\t10\t1", id="param 1e300"),
+        pytest.param("1\t0\t3\t16\t0\t0\t0\t0\t47.3\t8.5\t-inf\t1", id="altitude -inf"),
+    ],
+)
+def test_a_hostile_waypoint_file_is_refused_before_any_frame(tmp_path: Path, item: str) -> None:
+    """The whole file is checked before the link opens: a one-line error, exit 2, and not
+    one frame sent (the endpoint is a port nobody listens on: a frame would not fail)."""
+    path = tmp_path / "m.waypoints"
+    path.write_text(f"{WPL_HEADER}\n{HOME}\n{item}\n")
+    done = gcs("mission", "upload", "udpout:127.0.0.1:9", str(path), "--timeout", "1")
+    assert done.returncode == 2, done.stderr
+    assert "Traceback" not in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1, done.stderr
+    assert "heartbeat" not in done.stderr.lower()  # refused before any link was tried
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, 1e30])
+async def test_a_vehicle_sending_an_impossible_item_fails_the_download_cleanly(bad: float) -> None:
+    """A float MISSION_ITEM whose latitude is NaN, infinite or 1e30: the download fails
+    with a MissionError naming the item, nothing is written, the link stays usable."""
+    raw = mavlink.MAVLink_mission_item_message(
+        255, 190, 1, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, 16, 0, 1, 0, 0, 0, 0, bad, 8.5, 10
+    )
+    home = MissionItem.waypoint(0, 47.3977, 8.5456, 0.0)
+    options = FakeOptions(raw_items={1: raw})
+    async with connected(options) as (fake, link):
+        fake.mission = [home, home.with_seq(1)]
+        with pytest.raises(MissionError, match="at item 1"):
+            await link.download_mission()
+        assert link.is_up

@@ -48,6 +48,9 @@ class FakeOptions:
     #: command id -> results to answer in turn (None = stay silent); then ACCEPTED.
     command_script: dict[int, list[int | None]] = field(default_factory=dict)
     signing: SigningConfig | None = None
+    #: seq -> the message sent for that item when it is requested, whatever it holds (a
+    #: vehicle that sends what it likes).
+    raw_items: dict[int, Message] = field(default_factory=dict)
 
 
 class FakeVehicle:
@@ -278,7 +281,9 @@ class FakeVehicle:
         self.send(mavlink.MAVLink_mission_count_message(255, 190, len(self.mission), 0))
 
     def _on_mission_request_int(self, msg: Message) -> None:
-        if 0 <= msg.seq < len(self.mission):
+        if msg.seq in self.o.raw_items:
+            self.send(self.o.raw_items[msg.seq])
+        elif 0 <= msg.seq < len(self.mission):
             self.send(self.mission[msg.seq].to_message(255, 190))
 
     def _on_mission_clear_all(self, msg: Message) -> None:

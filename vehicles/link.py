@@ -43,7 +43,13 @@ from vehicles.modes import FlightMode
 from vehicles.parameters import ParameterClient, ParameterSettings
 from vehicles.router import Message, MessageRouter
 from vehicles.signing import SigningConfig
-from vehicles.telemetry import TelemetryCache, Topic, TopicStreams, VehicleStatus
+from vehicles.telemetry import (
+    ImplausibleTelemetry,
+    TelemetryCache,
+    Topic,
+    TopicStreams,
+    VehicleStatus,
+)
 from vehicles.transport import GCS_COMPONENT_ID, GCS_SYSTEM_ID, MavlinkTransport
 
 log = logging.getLogger(__name__)
@@ -87,6 +93,8 @@ class RejectedFrames:
     unknown_messages: int = 0
     #: Good frames from a system id other than the vehicle's.
     foreign_frames: int = 0
+    #: Telemetry carrying values no vehicle can have (``ImplausibleTelemetry``).
+    implausible: int = 0
 
     @property
     def total(self) -> int:
@@ -148,6 +156,7 @@ class VehicleLink:
         self.messages_in = 0
         #: Good messages from another system than the vehicle's, ignored.
         self.foreign_frames = 0
+        self.implausible = 0
         transport.follow_peer = self._from_vehicle
         self._fixed_profile = profile
         self.router = MessageRouter()
@@ -242,6 +251,7 @@ class VehicleLink:
             bad_signatures=stats.bad_signatures,
             unknown_messages=stats.unknown_messages,
             foreign_frames=self.foreign_frames,
+            implausible=self.implausible,
         )
 
     @property
@@ -323,7 +333,13 @@ class VehicleLink:
                 self._on_heartbeat()
         elif self._up.is_set():
             self._heard.set()
-        update = self.telemetry.update(msg)
+        try:
+            update = self.telemetry.update(msg)
+        except ImplausibleTelemetry as exc:
+            self.implausible += 1
+            if self.implausible == 1:
+                self._log.warning("refused %s: %s", msg.get_type(), exc)
+            return
         if self._fixed_profile is not None:
             self.telemetry.profile = self._fixed_profile
         if update is not None:

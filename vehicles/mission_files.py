@@ -18,7 +18,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from vehicles.mission_items import MissionItem, xy_scale
+from vehicles.mission_items import MissionItem, MissionItemError, xy_scale
 
 WPL_HEADER = "QGC WPL 110"
 _WPL_COLUMNS = 12
@@ -59,8 +59,11 @@ def _fmt_xy(value_int: int, frame: int) -> str:
 
 
 def _xy_from_float(value: float, frame: int) -> int:
+    value = float(value)
     if math.isnan(value):
         return 0
+    if math.isinf(value):
+        raise MissionItemError("x/y is infinite")
     return round(value * xy_scale(frame))
 
 
@@ -194,16 +197,19 @@ def parse_plan(text: str, source: str = "<plan>") -> list[MissionItem]:
     home = _require(mission, "plannedHomePosition", list, source, "mission.")
     if len(home) != 3 or not all(isinstance(v, int | float) for v in home):
         raise MissionFileError(source, "mission.plannedHomePosition must be [lat, lon, alt]")
-    items = [
-        MissionItem(
-            seq=0,
-            frame=mavlink.MAV_FRAME_GLOBAL,
-            command=mavlink.MAV_CMD_NAV_WAYPOINT,
-            x=round(home[0] * 1e7),
-            y=round(home[1] * 1e7),
-            z=float(home[2]),
-        )
-    ]
+    try:
+        items = [
+            MissionItem(
+                seq=0,
+                frame=mavlink.MAV_FRAME_GLOBAL,
+                command=mavlink.MAV_CMD_NAV_WAYPOINT,
+                x=_xy_from_float(home[0], mavlink.MAV_FRAME_GLOBAL),
+                y=_xy_from_float(home[1], mavlink.MAV_FRAME_GLOBAL),
+                z=float(home[2]),
+            )
+        ]
+    except ValueError as exc:
+        raise MissionFileError(source, f"mission.plannedHomePosition: {exc}") from None
     raw_items = _require(mission, "items", list, source, "mission.")
     for index, raw in enumerate(raw_items):
         items.append(_parse_plan_item(raw, seq=len(items), where=f"mission.items[{index}]"))
@@ -225,6 +231,15 @@ def _parse_plan_item(raw: Any, seq: int, where: str) -> MissionItem:
         command = int(raw["command"])
     except (KeyError, TypeError, ValueError) as exc:
         raise MissionFileError(where, f"bad or missing field: {exc}") from None
+    try:
+        return _simple_item(raw, seq, frame, command, values)
+    except ValueError as exc:
+        raise MissionFileError(where, str(exc)) from None
+
+
+def _simple_item(
+    raw: dict[str, Any], seq: int, frame: int, command: int, values: list[float]
+) -> MissionItem:
     return MissionItem(
         seq=seq,
         frame=frame,

@@ -39,11 +39,34 @@ LOCAL_FRAMES = frozenset(
 
 
 _FLOAT32_FIELDS = ("param1", "param2", "param3", "param4", "z")
-_INT_FIELDS = ("seq", "frame", "command", "current", "autocontinue", "x", "y", "mission_type")
+#: Each integer field and the range its wire type holds.
+_INT_FIELDS = {
+    "seq": (0, 0xFFFF),
+    "frame": (0, 0xFF),
+    "command": (0, 0xFFFF),
+    "current": (0, 0xFF),
+    "autocontinue": (0, 0xFF),
+    "x": (-(2**31), 2**31 - 1),
+    "y": (-(2**31), 2**31 - 1),
+    "mission_type": (0, 0xFF),
+}
 
 
-def _float32(value: float) -> float:
-    return struct.unpack("<f", struct.pack("<f", float(value)))[0]
+class MissionItemError(ValueError):
+    """An item no vehicle can be sent or have: a value its wire field cannot hold, an
+    infinite parameter, a latitude beyond the pole."""
+
+
+def _float32(name: str, value: float) -> float:
+    """``value`` as float32; NaN passes (MAVLink's "unused" or "default"), infinity and
+    values beyond float32 do not."""
+    value = float(value)
+    if math.isinf(value):
+        raise MissionItemError(f"{name} is infinite")
+    try:
+        return struct.unpack("<f", struct.pack("<f", value))[0]
+    except OverflowError:
+        raise MissionItemError(f"{name} {value:g} is beyond a float32") from None
 
 
 def xy_scale(frame: int) -> float:
@@ -76,12 +99,23 @@ class MissionItem:
     mission_type: int = MISSION
 
     def __post_init__(self) -> None:
+        """Every item is checked as it is made (read from a file, received, generated):
+        one that cannot travel is refused before any transfer starts."""
         # Parameters travel as float32: store them that way so that an item
         # equals itself after a trip over the wire.
         for name in _FLOAT32_FIELDS:
-            object.__setattr__(self, name, _float32(getattr(self, name)))
-        for name in _INT_FIELDS:
-            object.__setattr__(self, name, int(getattr(self, name)))
+            object.__setattr__(self, name, _float32(name, getattr(self, name)))
+        for name, (low, high) in _INT_FIELDS.items():
+            value = int(getattr(self, name))
+            if not low <= value <= high:
+                raise MissionItemError(f"{name} {value} is outside {low}..{high}")
+            object.__setattr__(self, name, value)
+        if self.frame in GLOBAL_FRAMES and (
+            abs(self.x) > 900_000_000 or abs(self.y) > 1_800_000_000
+        ):
+            raise MissionItemError(
+                f"latitude/longitude {self.x / 1e7:g}, {self.y / 1e7:g} is off the Earth"
+            )
 
     @classmethod
     def waypoint(
@@ -151,6 +185,8 @@ class MissionItem:
         """From MISSION_ITEM_INT, or the old float MISSION_ITEM (x/y scaled to INT)."""
         if msg.get_type() == "MISSION_ITEM":
             scale = xy_scale(msg.frame)
+            if not (math.isfinite(msg.x) and math.isfinite(msg.y)):
+                raise MissionItemError(f"x/y {msg.x}, {msg.y} is not a position")
             x, y = round(msg.x * scale), round(msg.y * scale)
         else:
             x, y = msg.x, msg.y

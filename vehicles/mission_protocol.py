@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from vehicles.errors import MissionError, MissionTimeout
-from vehicles.mission_items import MISSION, MissionItem
+from vehicles.mission_items import MISSION, MissionItem, MissionItemError
 from vehicles.router import Inbox, Message, MessageRouter, send_and_wait
 
 log = logging.getLogger(__name__)
@@ -251,7 +251,12 @@ class MissionClient:
                 def accept_item(msg: Message, seq: int = seq) -> MissionItem | None:
                     refuse_on_error_ack(msg)
                     if msg.get_type() in _ITEMS and msg.seq == seq:
-                        return MissionItem.from_message(msg)
+                        try:
+                            return MissionItem.from_message(msg)
+                        except MissionItemError as exc:
+                            raise MissionError(
+                                "download", f"the vehicle sent {exc}", seq=seq
+                            ) from None
                     return None  # a duplicate, a late item or a repeated count
 
                 try:

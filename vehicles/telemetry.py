@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import math
 from collections import defaultdict
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass, field, replace
@@ -170,6 +171,32 @@ def _none_if(value: float, *unknown: float) -> float | None:
     return None if value in unknown else value
 
 
+class ImplausibleTelemetry(ValueError):
+    """A message carrying a value no vehicle can have (battery at 127 %, latitude 1e30,
+    a NaN): refused whole, so that nothing of it reaches the planner."""
+
+
+#: Fastest a vehicle of ours can move (m/s): faster is a broken or lying sender.
+MAX_SPEED_M_S = 150.0
+
+
+def _check(ok: bool, what: str) -> None:
+    if not ok:
+        raise ImplausibleTelemetry(what)
+
+
+def _check_lat_lon(lat_deg: float, lon_deg: float) -> None:
+    _check(-90.0 <= lat_deg <= 90.0 and -180.0 <= lon_deg <= 180.0, "position off the Earth")
+
+
+def _check_finite(*values: float) -> None:
+    _check(all(math.isfinite(v) for v in values), "a value that is not a number")
+
+
+def _check_pct(remaining: float | None) -> None:
+    _check(remaining is None or 0 <= remaining <= 100, "battery outside 0-100 %")
+
+
 @dataclass
 class TelemetryCache:
     """The latest telemetry of one vehicle. ``update`` returns the topic it changed."""
@@ -187,6 +214,8 @@ class TelemetryCache:
     target: GuidedTarget | None = None
 
     def update(self, msg: Message) -> tuple[Topic, Any] | None:
+        """Take in one message; ``ImplausibleTelemetry`` (and nothing cached) when it
+        carries a value out of physical range."""
         handler = _HANDLERS.get(msg.get_type())
         return None if handler is None else handler(self, msg)
 
@@ -219,6 +248,10 @@ class TelemetryCache:
         return Topic.STATUS, self.status
 
     def _on_global_position_int(self, msg: Message) -> tuple[Topic, Any]:
+        _check_lat_lon(msg.lat / 1e7, msg.lon / 1e7)
+        _check(msg.hdg <= 36000 or msg.hdg == UINT16_MAX, "heading beyond 360 degrees")
+        speed = math.sqrt(msg.vx**2 + msg.vy**2 + msg.vz**2) / 100.0
+        _check(speed <= MAX_SPEED_M_S, "speed beyond any vehicle's")
         self.position = Position(
             lat_deg=msg.lat / 1e7,
             lon_deg=msg.lon / 1e7,
@@ -234,6 +267,7 @@ class TelemetryCache:
 
     def _on_sys_status(self, msg: Message) -> tuple[Topic, Any]:
         remaining = _none_if(msg.battery_remaining, -1)
+        _check_pct(remaining)
         voltage = _none_if(msg.voltage_battery, UINT16_MAX)
         current = _none_if(msg.current_battery, -1)
         self.battery = replace(
@@ -248,9 +282,11 @@ class TelemetryCache:
         if msg.id != 0:
             return None
         remaining = _none_if(msg.battery_remaining, -1)
+        _check_pct(remaining)
         voltage = _none_if(msg.voltages[0], UINT16_MAX)
         current = _none_if(msg.current_battery, -1)
         consumed = _none_if(msg.current_consumed, -1)
+        _check(consumed is None or consumed >= 0, "negative charge consumed")
         old = self.battery
         self.battery = Battery(
             remaining_pct=old.remaining_pct if remaining is None else float(remaining),
@@ -262,6 +298,7 @@ class TelemetryCache:
         return Topic.BATTERY, self.battery
 
     def _on_distance_sensor(self, msg: Message) -> tuple[Topic, Any]:
+        _check(msg.max_distance > 0 and msg.min_distance <= msg.max_distance, "range limits")
         reading = RangeReading(
             orientation=msg.orientation,
             distance_m=msg.current_distance / 100.0,
@@ -274,6 +311,8 @@ class TelemetryCache:
         return Topic.RANGE, reading
 
     def _on_obstacle_distance(self, msg: Message) -> tuple[Topic, Any]:
+        _check_finite(msg.increment_f, msg.angle_offset)
+        _check(msg.max_distance > 0 and msg.min_distance <= msg.max_distance, "range limits")
         increment = msg.increment_f or float(msg.increment)
         self.obstacles = ObstacleDistances(
             distances_m=tuple(None if d == UINT16_MAX else d / 100.0 for d in msg.distances),
@@ -312,10 +351,12 @@ class TelemetryCache:
         return Topic.GPS, self.gps
 
     def _on_home_position(self, msg: Message) -> tuple[Topic, Any]:
+        _check_lat_lon(msg.latitude / 1e7, msg.longitude / 1e7)
         self.home = Home(msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1000.0)
         return Topic.HOME, self.home
 
     def _on_position_target_global_int(self, msg: Message) -> tuple[Topic, Any]:
+        _check_lat_lon(msg.lat_int / 1e7, msg.lon_int / 1e7)
         self.target = GuidedTarget(msg.lat_int / 1e7, msg.lon_int / 1e7, msg.time_boot_ms)
         return Topic.TARGET, self.target
 

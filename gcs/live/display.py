@@ -35,6 +35,7 @@ _REJECTED_LABELS = (
     ("bad_signatures", "bad signature"),
     ("unknown_messages", "unknown id"),
     ("foreign_frames", "foreign"),
+    ("implausible", "implausible values"),
 )
 
 
