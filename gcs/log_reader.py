@@ -96,7 +96,9 @@ def _records(path: Path) -> Iterator[Schema | Channel | Message | Footer]:
         if handle.read(len(MCAP0_MAGIC)) != MCAP0_MAGIC:
             raise LogError(f"{path}: not an MCAP file")
         handle.seek(0)
-        reader = StreamReader(handle, emit_chunks=True, record_size_limit=1 << 30)
+        reader = StreamReader(
+            handle, emit_chunks=True, record_size_limit=1 << 30, validate_crcs=True
+        )
         try:
             for record in reader.records:
                 if isinstance(record, Chunk):
@@ -190,9 +192,10 @@ def reconstruct(contents: LogContents) -> RunResult:
     """A best-effort RunResult of a run whose log ends before its result.
 
     Tracks are cut to the last iteration every vehicle reached. Coverage
-    counts the cells the vehicles stood on (which is what covering means);
-    free cells are those the last map and the tracks know: the truth is not
-    in the log. Wall and planner times are unknown (0).
+    counts the cells the vehicles stood on (which is what covering means),
+    against the mission's free cells (``/run/meta``; logs written before it
+    carried them: those the last map and the tracks know). Such a run is
+    never complete: ``interrupted``. Wall and planner times are unknown (0).
     """
     meta = contents.meta or {}
     shape = (int(meta["shape"][0]), int(meta["shape"][1]))
@@ -218,7 +221,7 @@ def reconstruct(contents: LogContents) -> RunResult:
         btps=btps,
         covered_per_iteration=_covered_series(states, steps),
         iterations=_coverage_iteration(contents, steps),
-        free_cells=int(free.sum()),
+        free_cells=int(meta.get("free_cells", free.sum())),
         covered_cells=int((covered & free).sum()),
         out_of_range_cells=0,
         safety_net_fires=sum(kinds.get((EventKind.SAFETY_NET.value, i), 0) for i in (*ids, None)),

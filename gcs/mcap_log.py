@@ -235,6 +235,7 @@ SCHEMAS: dict[str, dict[str, Any]] = {
         reserve_pct=_num(),
         origin=_obj(None, lat_deg=_num(), lon_deg=_num(), alt_m=_num()),
         started_unix_s=_num(),
+        free_cells=_int(),
     ),
     RESULT_SCHEMA: {"type": "object", "title": RESULT_SCHEMA},
 }
@@ -426,6 +427,7 @@ class McapMissionLog:
         charger: Cell,
         geo: GeoFrame,
         reserve_pct: float,
+        free_cells: int | None = None,
         chunk_size: int = 64 * 1024,
         flush_s: float = 1.0,
         scene_period_s: float = 5.0,
@@ -470,7 +472,7 @@ class McapMissionLog:
         #: Why and when (mission seconds) the file stopped being written, if it did.
         self.failure: str | None = None
         self.on_failure = on_failure
-        self._write_meta(mission_name, charger, reserve_pct)
+        self._write_meta(mission_name, charger, reserve_pct, free_cells)
 
     # -------------------------------------------------------------- plumbing
 
@@ -541,9 +543,13 @@ class McapMissionLog:
             self._fail(exc)
         self._last_flush = time.monotonic()
 
-    def _write_meta(self, mission: str, charger: Cell, reserve_pct: float) -> None:
+    def _write_meta(
+        self, mission: str, charger: Cell, reserve_pct: float, free_cells: int | None
+    ) -> None:
+        """What the run is about, first in the file: with the mission's own count of free
+        cells, against which a log cut short is reported."""
         geo = self._geo
-        meta = {
+        meta: dict[str, Any] = {
             "mission": mission,
             "shape": list(self._shape),
             "cell_size_m": self._cell_size_m,
@@ -552,6 +558,8 @@ class McapMissionLog:
             "origin": {"lat_deg": geo.lat_deg, "lon_deg": geo.lon_deg, "alt_m": geo.alt_m},
             "started_unix_s": time.time(),
         }
+        if free_cells is not None:
+            meta["free_cells"] = free_cells
         self._json(META_TOPIC, META_SCHEMA, 0.0, meta)
         self._json(
             TF_TOPIC,

@@ -78,6 +78,7 @@ def report_dict(result: RunResult) -> dict[str, Any]:
     report: dict[str, Any] = {
         "mission": result.mission,
         "complete": result.complete,
+        "interrupted": result.interrupted,
         "shape": list(result.shape),
         "cell_size_m": result.cell_size_m,
         "agent_count": len(result.agents),
@@ -128,12 +129,18 @@ def write_report(result: RunResult, out_dir: Path) -> Path:
     return target
 
 
+def _verdict(result: RunResult) -> str:
+    if result.interrupted:
+        return "INTERRUPTED (the log ends before the run's result)"
+    return "complete" if result.complete else "INCOMPLETE"
+
+
 def summary_rows(result: RunResult) -> list[tuple[str, str]]:
     """Label/value pairs for the terminal summary table."""
     n_agents = len(result.agents)
     return [
         ("Mission", result.mission),
-        ("Result", "complete" if result.complete else "INCOMPLETE"),
+        ("Result", _verdict(result)),
         ("Map", f"{result.shape[0]} x {result.shape[1]} cells of {result.cell_size_m:g} m"),
         ("Agents", f"{n_agents} ({result.lost_agents} lost)"),
         (

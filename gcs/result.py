@@ -82,8 +82,17 @@ class RunResult:
     extra: dict[str, float | int | str] = field(default_factory=dict)
 
     @property
+    def interrupted(self) -> bool:
+        """Rebuilt from a log that ends (or is damaged) before the run's result."""
+        return bool(self.extra.get("log_truncated"))
+
+    @property
     def complete(self) -> bool:
-        return self.covered_cells >= self.free_cells and not self.lost_agents
+        """Every free cell covered and nobody lost, as the run's own result says: a log
+        without its result proves neither."""
+        return (
+            self.covered_cells >= self.free_cells and not self.lost_agents and not self.interrupted
+        )
 
     @property
     def coverage_pct(self) -> float:

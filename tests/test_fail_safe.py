@@ -11,17 +11,21 @@ import math
 import os
 import subprocess
 import sys
+import tempfile
 import unicodedata
 from pathlib import Path
 
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from rich.console import Console
 
+from gcs.cli import main
 from gcs.live.display import LiveDisplay
 from gcs.live.shared import Level
+from gcs.log_reader import LogError, read_log
+from gcs.result import RunResult
 from tests.test_link_commands import connected
 from tests.test_link_fake import FakeOptions, FakeVehicle
 from tests.test_live_mission import SMALL, write_mission
@@ -217,3 +221,96 @@ async def test_a_vehicle_sending_an_impossible_item_fails_the_download_cleanly(b
         with pytest.raises(MissionError, match="at item 1"):
             await link.download_mission()
         assert link.is_up
+
+
+# -- the record tells the truth ----------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def full_log(tmp_path_factory: pytest.TempPathFactory) -> tuple[bytes, RunResult]:
+    """A real mission log (the plan of a small mission) and the run it records."""
+    folder = tmp_path_factory.mktemp("log")
+    mission = write_mission(folder, SMALL, [{"type": "rover"}])
+    out = folder / "out"
+    assert main(["plan", str(mission), "--quiet", "--out", str(out)]) == 0
+    data = (out / "mission.mcap").read_bytes()
+    result = read_log(out / "mission.mcap")
+    assert result.complete and not result.interrupted
+    return data, result
+
+
+def _read_bytes(data: bytes) -> RunResult | None:
+    """What ``gcs report`` makes of these bytes: a run, or None for a refused file."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "cut.mcap"
+        path.write_bytes(data)
+        try:
+            return read_log(path)
+        except LogError:
+            return None
+
+
+@settings(max_examples=150, deadline=None)
+@given(cut=st.floats(0.0, 1.0, exclude_max=True))
+def test_any_prefix_of_a_log_is_interrupted_never_complete(
+    full_log: tuple[bytes, RunResult], cut: float
+) -> None:
+    """A log cut at any byte is read as interrupted (or refused, when not even the run's
+    description survived), with coverage counted against the mission's free cells and no
+    higher than the whole run's; only a cut after the run's own result record (in the
+    index that follows it) still proves the run, and then exactly."""
+    data, truth = full_log
+    got = _read_bytes(data[: int(cut * len(data))])
+    if got is None:
+        return
+    if not got.interrupted:
+        assert (got.complete, got.covered_cells) == (truth.complete, truth.covered_cells)
+        return
+    assert not got.complete
+    assert got.free_cells == truth.free_cells
+    assert got.covered_cells <= truth.covered_cells
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    flips=st.lists(
+        st.tuples(st.floats(0.0, 1.0, exclude_max=True), st.integers(1, 255)),
+        min_size=1,
+        max_size=50,
+    )
+)
+def test_a_damaged_log_claims_nothing_it_does_not_hold(
+    full_log: tuple[bytes, RunResult], flips: list[tuple[float, int]]
+) -> None:
+    """Bytes flipped anywhere: the file is refused, or read as interrupted, or (the damage
+    missed every record of the run) read exactly as the run was."""
+    data, truth = full_log
+    damaged = bytearray(data)
+    for where, mask in flips:
+        damaged[int(where * len(data))] ^= mask
+    got = _read_bytes(bytes(damaged))
+    if got is None or got.interrupted:
+        return
+    assert (got.complete, got.covered_cells, got.free_cells) == (
+        truth.complete,
+        truth.covered_cells,
+        truth.free_cells,
+    )
+
+
+def test_gcs_report_on_a_log_cut_during_readiness_says_interrupted(
+    full_log: tuple[bytes, RunResult], tmp_path: Path
+) -> None:
+    data, truth = full_log
+    path = tmp_path / "cut.mcap"
+    path.write_bytes(data[:1024])
+    done = gcs("report", str(path), "--out", str(tmp_path / "report"))
+    assert "Traceback" not in done.stderr
+    if done.returncode == 2:  # not even the run's description in the first kilobyte
+        assert len(done.stderr.strip().splitlines()) == 1
+        return
+    assert done.returncode == 1, done.stdout + done.stderr
+    assert "INTERRUPTED" in done.stdout
+    report = json.loads((tmp_path / "report" / "report.json").read_text())
+    assert report["interrupted"] and not report["complete"]
+    assert report["free_cells"] == truth.free_cells

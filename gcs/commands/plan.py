@@ -167,6 +167,7 @@ def open_log(mission: Mission, out: Path | None, live: LiveView | None = None) -
             charger=mission.charger,
             geo=mission.geo,
             reserve_pct=mission.planner.reserve_pct,
+            free_cells=int(mission.map.reachable(mission.charger).sum()),
             live=live,
         )
     except OSError as exc:
