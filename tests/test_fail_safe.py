@@ -5,6 +5,8 @@ operator would make it, and asserts the safe outcome."""
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import dataclasses
 import io
 import json
 import math
@@ -26,10 +28,11 @@ from gcs.live.display import LiveDisplay
 from gcs.live.shared import Level
 from gcs.log_reader import LogError, read_log
 from gcs.result import RunResult
-from tests.test_link_commands import connected
+from tests.test_link_commands import FAST, connected
 from tests.test_link_fake import FakeOptions, FakeVehicle
 from tests.test_live_mission import SMALL, write_mission
-from vehicles.errors import MissionError
+from vehicles.endpoints import free_loopback_udp_ports
+from vehicles.errors import LinkError, MissionError
 from vehicles.link import VehicleLink
 from vehicles.mission_items import MissionItem
 from vehicles.printable import printable
@@ -314,3 +317,69 @@ def test_gcs_report_on_a_log_cut_during_readiness_says_interrupted(
     report = json.loads((tmp_path / "report" / "report.json").read_text())
     assert report["interrupted"] and not report["complete"]
     assert report["free_cells"] == truth.free_cells
+
+
+# -- an impostor on a udpin endpoint -----------------------------------------------------
+
+
+class _Peer(asyncio.DatagramProtocol):
+    """A UDP socket on loopback that speaks as system 1 and keeps what it is sent."""
+
+    def __init__(self) -> None:
+        self.codec = mavlink.MAVLink(None, 1, 1)
+        self.got: list[mavlink.MAVLink_message] = []
+        self.parser = mavlink.MAVLink(None)
+        self.transport: asyncio.DatagramTransport | None = None
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        self.transport = transport  # type: ignore[assignment]
+
+    def datagram_received(self, data: bytes, addr: tuple[str, int]) -> None:
+        self.got += self.parser.parse_buffer(data) or []
+
+    def heartbeat(self, port: int) -> None:
+        msg = self.codec.heartbeat_encode(
+            mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 0, 0
+        )
+        assert self.transport is not None
+        self.transport.sendto(bytes(msg.pack(self.codec)), ("127.0.0.1", port))
+
+    def commands(self) -> int:
+        return sum(1 for m in self.got if m.get_type() == "COMMAND_LONG")
+
+
+@pytest.mark.parametrize("follow", [False, True])
+async def test_an_impostor_does_not_take_the_reply_address(follow: bool) -> None:
+    """The vehicle speaks first; a second sender on another port claims system 1: the
+    station's commands still go to the vehicle, the impostor's frames are counted as
+    from a second address and shown; ``--follow-address`` lets the address move."""
+    loop = asyncio.get_running_loop()
+    port = free_loopback_udp_ports(1)[0]
+    settings = dataclasses.replace(FAST, follow_address=follow)
+    link = await VehicleLink.connect(f"udpin:127.0.0.1:{port}", target_system=1, settings=settings)
+    peers = []
+    try:
+        for _ in range(2):
+            _, peer = await loop.create_datagram_endpoint(_Peer, local_addr=("127.0.0.1", 0))
+            peers.append(peer)
+        vehicle, impostor = peers
+        vehicle.heartbeat(port)
+        await link.wait_heartbeat(timeout_s=2.0)
+        vehicle.heartbeat(port)  # the address is locked once the vehicle is known
+        await link.wait_for(Topic.STATUS, lambda _s: True, 2.0)
+        for _ in range(3):
+            impostor.heartbeat(port)
+        await asyncio.sleep(0.1)
+        with contextlib.suppress(LinkError):  # nobody answers it: only where it went counts
+            await link.command_long(mavlink.MAV_CMD_REQUEST_MESSAGE, 0)
+        if follow:  # the address moved with the last sender
+            assert link.rejected.other_address == 0
+            assert impostor.commands() >= 1 and vehicle.commands() == 0
+        else:
+            assert link.rejected.other_address == 3
+            assert impostor.commands() == 0 and vehicle.commands() >= 1
+    finally:
+        await link.close()
+        for peer in peers:
+            assert peer.transport is not None
+            peer.transport.close()

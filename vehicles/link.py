@@ -95,6 +95,8 @@ class RejectedFrames:
     foreign_frames: int = 0
     #: Telemetry carrying values no vehicle can have (``ImplausibleTelemetry``).
     implausible: int = 0
+    #: ``udpin`` datagrams speaking for the vehicle from a second address (an impostor).
+    other_address: int = 0
 
     @property
     def total(self) -> int:
@@ -129,6 +131,9 @@ class LinkSettings:
     #: Pause between retries of an operation the vehicle is not ready for (arming
     #: during pre-arm checks), cut short by any STATUSTEXT.
     not_ready_retry_s: float = 1.0
+    #: ``udpin``: follow a vehicle whose address changes (a router restarted) instead of
+    #: staying with the address it first spoke from (``MavlinkTransport``).
+    follow_address: bool = False
     commands: CommandSettings = field(default_factory=CommandSettings)
     mission: MissionSettings = field(default_factory=MissionSettings)
     parameters: ParameterSettings = field(default_factory=ParameterSettings)
@@ -158,6 +163,8 @@ class VehicleLink:
         self.foreign_frames = 0
         self.implausible = 0
         transport.follow_peer = self._from_vehicle
+        transport.lock_peer = self._from_known_vehicle
+        transport.follow_moves = self.settings.follow_address
         self._fixed_profile = profile
         self.router = MessageRouter()
         self.streams = TopicStreams()
@@ -238,6 +245,9 @@ class VehicleLink:
             raise LinkError("no vehicle heard yet: wait_heartbeat() first")
         return self._target_system, self.target_component
 
+    def _from_known_vehicle(self, msg: Message) -> bool:
+        return self._target_system is not None and msg.get_srcSystem() == self._target_system
+
     def _from_vehicle(self, msg: Message) -> bool:
         """Whether ``msg`` comes from our vehicle (any system until one is known)."""
         return self._target_system is None or msg.get_srcSystem() == self._target_system
@@ -252,6 +262,7 @@ class VehicleLink:
             unknown_messages=stats.unknown_messages,
             foreign_frames=self.foreign_frames,
             implausible=self.implausible,
+            other_address=stats.other_address,
         )
 
     @property

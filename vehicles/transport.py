@@ -49,6 +49,9 @@ class TransportStats:
     dropped_in: int = 0
     unsent: int = 0
     reconnects: int = 0
+    #: ``udpin``: datagrams speaking for our vehicle from an address other than the one it
+    #: first spoke from (an impostor, unless the operator lets the address move).
+    other_address: int = 0
 
 
 class MavlinkTransport:
@@ -58,8 +61,13 @@ class MavlinkTransport:
     ``recv()`` (or ``async for``) gives decoded messages from any system on the
     endpoint; ``send(msg)`` packs with our system/component id (and signature).
     A ``udpin`` transport is silent (``send`` counts ``unsent``) until it has
-    heard someone, and then replies to the last sender of a good message (that
-    ``follow_peer`` accepts; garbage never moves the reply address).
+    heard someone, and then replies to the sender of a good message that
+    ``follow_peer`` accepts (garbage never moves the reply address). Once one that
+    ``lock_peer`` accepts has come (our vehicle, known by its system id), the reply
+    address stays where it is: a datagram from another address speaking for the
+    vehicle is dropped whole and counted (``stats.other_address``), unless
+    ``follow_moves`` (a vehicle whose address may change). Without signing, any host
+    that can reach the port can still speak first; signing is the real protection.
     """
 
     def __init__(
@@ -87,6 +95,9 @@ class MavlinkTransport:
         #: ``udpin``: only a datagram with a good message this accepts moves the reply
         #: address (``peer``), so garbage or a stranger's frames cannot divert what we send.
         self.follow_peer: Callable[[mavlink.MAVLink_message], bool] = _any_message
+        self.lock_peer: Callable[[mavlink.MAVLink_message], bool] = _no_message
+        self.follow_moves = False
+        self._peer_locked = False
 
     # -- life cycle -----------------------------------------------------------------
 
@@ -222,12 +233,15 @@ class MavlinkTransport:
             except TransportClosed:
                 return
 
-    def _feed(self, data: bytes, *, whole_frames: bool = False) -> list[mavlink.MAVLink_message]:
+    def _feed(
+        self, data: bytes, *, whole_frames: bool = False, source: Address | None = None
+    ) -> list[mavlink.MAVLink_message]:
         """Parse ``data``, queue every good message (called by the readers) and
         return them.
 
-        ``whole_frames``: ``data`` is a datagram, which holds whole frames only,
-        so a truncated frame left at its end is garbage, not the start of the next."""
+        ``whole_frames``: ``data`` is a datagram (from ``source``), which holds whole
+        frames only, so a truncated frame left at its end is garbage, not the start of
+        the next."""
         self.stats.bytes_in += len(data)
         try:
             msgs = self.codec.parse_buffer(data) or []
@@ -236,11 +250,34 @@ class MavlinkTransport:
             self.stats.bad_frames += 1
             self._reset_parser()
             return []
-        good = [msg for msg in msgs if self._accept(msg)]
-        if whole_frames and self.codec.buf_len() > 0:
+        if (whole_frames or source is not None) and self.codec.buf_len() > 0:
             self.stats.bad_frames += 1
             self._reset_parser()
-        return good
+        udp_in = source is not None and self.endpoint.kind is EndpointKind.UDP_IN
+        if udp_in and not self._take_peer(source, msgs):  # type: ignore[arg-type]
+            return []
+        return [msg for msg in msgs if self._accept(msg)]
+
+    def _take_peer(self, source: Address, msgs: list[mavlink.MAVLink_message]) -> bool:
+        """``udpin``: follow or lock the reply address; False drops a datagram that speaks
+        for our vehicle from another address than the locked one."""
+        ours = [m for m in msgs if _is_message(m) and self.follow_peer(m)]
+        if not ours:
+            return True
+        address = (source[0], source[1])
+        if self._peer_locked and address != self.peer and not self.follow_moves:
+            self.stats.other_address += 1
+            if self.stats.other_address == 1:
+                log.warning(
+                    "%s: %s speaks for the vehicle heard from %s: ignored",
+                    self.endpoint,
+                    address,
+                    self.peer,
+                )
+            return False
+        self.peer = address
+        self._peer_locked = self._peer_locked or any(map(self.lock_peer, ours))
+        return True
 
     def _accept(self, msg: mavlink.MAVLink_message) -> bool:
         """Count ``msg``; queue it and say true if it is a good message."""
@@ -323,10 +360,7 @@ class _DatagramProtocol(asyncio.DatagramProtocol):
         self.owner = owner
 
     def datagram_received(self, data: bytes, addr: Address) -> None:
-        owner = self.owner
-        good = owner._feed(data, whole_frames=True)
-        if owner.endpoint.kind is EndpointKind.UDP_IN and any(map(owner.follow_peer, good)):
-            owner.peer = (addr[0], addr[1])
+        self.owner._feed(data, source=addr)
 
     def error_received(self, exc: Exception) -> None:
         # ICMP port unreachable and the like: the peer is not there (yet).
@@ -335,3 +369,12 @@ class _DatagramProtocol(asyncio.DatagramProtocol):
 
 def _any_message(_msg: mavlink.MAVLink_message) -> bool:
     return True
+
+
+def _no_message(_msg: mavlink.MAVLink_message) -> bool:
+    return False
+
+
+def _is_message(msg: mavlink.MAVLink_message) -> bool:
+    """A good message, not garbage or an id the dialect does not know."""
+    return not isinstance(msg, mavlink.MAVLink_bad_data | mavlink.MAVLink_unknown)

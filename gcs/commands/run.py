@@ -87,6 +87,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "(udpin:0.0.0.0:P); loopback only by default",
     )
     p.add_argument(
+        "--follow-address",
+        action="store_true",
+        help="on a udpin connection, follow a vehicle that starts speaking from another "
+        "address (a router restarted); by default the station stays with the address the "
+        "vehicle first spoke from and ignores, counts and shows frames that claim to be it "
+        "from elsewhere (an impostor; signing with --keys is the real protection)",
+    )
+    p.add_argument(
         "--resume",
         type=Path,
         metavar="LOG.mcap",
@@ -245,6 +253,7 @@ def options_from(args: argparse.Namespace, mission: Mission) -> LiveOptions:
         resume=resume,
         keys=keys_from(args, mission),
         allow_remote=args.allow_remote,
+        follow_address=args.follow_address,
     )
 
 

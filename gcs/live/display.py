@@ -36,6 +36,7 @@ _REJECTED_LABELS = (
     ("unknown_messages", "unknown id"),
     ("foreign_frames", "foreign"),
     ("implausible", "implausible values"),
+    ("other_address", "from a second address"),
 )
 
 

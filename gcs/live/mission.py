@@ -140,6 +140,9 @@ class LiveOptions:
     resume: ResumePoint | None = None
     #: Connections to hosts other than this machine (loopback only by default).
     allow_remote: bool = False
+    #: ``udpin``: follow a vehicle whose address changes, instead of staying with the
+    #: address it first spoke from (``--follow-address``).
+    follow_address: bool = False
     #: MAVLink 2 signing keys (``gcs run --keys``): a vehicle with a key is signed both
     #: ways and its unsigned frames are refused; with ``sim`` its mock does the same.
     keys: KeyFile | None = field(default=None, repr=False)
@@ -178,10 +181,15 @@ def link_settings(options: LiveOptions, clock: Clock) -> LinkSettings:
     lost_real = max(0.5, clock.to_real(options.link_lost_after_s))
     beat_real = min(HEARTBEAT_PERIOD_S, max(0.02, clock.to_real(HEARTBEAT_PERIOD_S)))
     if not options.sim and options.speedup <= 1.0:
-        return LinkSettings(heartbeat_period_s=beat_real, link_lost_after_s=lost_real)
+        return LinkSettings(
+            heartbeat_period_s=beat_real,
+            link_lost_after_s=lost_real,
+            follow_address=options.follow_address,
+        )
     return LinkSettings(
         heartbeat_period_s=beat_real,
         link_lost_after_s=lost_real,
+        follow_address=options.follow_address,
         not_ready_retry_s=0.2,
         commands=CommandSettings(timeout_s=0.25, retries=6, in_progress_timeout_s=5.0),
         mission=MissionSettings(
