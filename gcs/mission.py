@@ -31,6 +31,7 @@ from planner.grid import Cell
 from sitl_mock.gridmap import GridMap
 from sitl_mock.maps import MapError, load_map, make_map, reachable_mask
 from vehicles.geo import GeoFrame
+from vehicles.printable import is_printable
 
 MAX_SYSID = 255
 CONNECTION_BASE_PORT = 14550
@@ -259,6 +260,8 @@ class _Loader:
         name = data.get("name", self.path.stem)
         if not isinstance(name, str) or not name.strip():
             raise self.fail("name", f"must be a non-empty string, got {_show(name)}")
+        if not is_printable(name):
+            raise self.fail("name", "must be printable text (no control or lone surrogate)")
         grid, charger = self.grid(data)
         fleet, defaults = self.fleet(data.get("fleet"))
         return Mission(

@@ -10,6 +10,7 @@ count as white) and carry no charging pad: the mission gives it separately.
 
 from __future__ import annotations
 
+import warnings
 from collections import deque
 from pathlib import Path
 
@@ -28,6 +29,14 @@ PNG_SUFFIXES = (".png",)
 DARK_THRESHOLD = 128
 
 
+#: The largest map read, in cells (2000 x 2000): four times the largest the planner is
+#: benchmarked on. A map file can claim any size (a 76 KB PNG of 20000 x 20000 pixels,
+#: an ASCII file of 400 MB), so the size is checked before anything is decoded.
+MAX_MAP_CELLS = 4_000_000
+#: Bytes an ASCII map of the largest size takes at most (CRLF line ends, trailing blanks).
+_MAX_ASCII_BYTES = 2 * MAX_MAP_CELLS + 100_000
+
+
 class MapError(ValueError):
     """A map that cannot be read or is malformed.
 
@@ -39,6 +48,15 @@ class MapError(ValueError):
         super().__init__(f"{source}: {problem}")
         self.problem = problem
         self.source = source
+
+
+def check_map_size(rows: int, cols: int, source: str = "<string>") -> None:
+    """Refuse a map larger than ``MAX_MAP_CELLS`` before it is allocated."""
+    if rows * cols > MAX_MAP_CELLS:
+        raise MapError(
+            f"{rows} x {cols} cells is more than the {MAX_MAP_CELLS:,} cells a map may have",
+            source,
+        )
 
 
 def make_map(obstacle: np.ndarray, pads: tuple[Cell, ...]) -> GridMap:
@@ -60,6 +78,7 @@ def parse_ascii(text: str, source: str = "<string>", *, require_pad: bool = True
     if not lines:
         raise MapError("map is empty", source)
     width = len(lines[0])
+    check_map_size(len(lines), width, source)
     codes = {OBSTACLE_CHAR: True, FREE_CHAR: False, PAD_CHAR: False}
     obstacle = np.zeros((len(lines), width), dtype=bool)
     pads: list[Cell] = []
@@ -102,6 +121,12 @@ def load_map(path: str | Path, *, require_pad: bool = True) -> GridMap:
     suffix = path.suffix.lower()
     if suffix in ASCII_SUFFIXES:
         try:
+            if path.stat().st_size > _MAX_ASCII_BYTES:
+                raise MapError(
+                    f"file of {path.stat().st_size:,} bytes is larger than a map of the "
+                    f"largest size ({MAX_MAP_CELLS:,} cells)",
+                    source,
+                )
             text = path.read_text(encoding="utf-8")
         except UnicodeDecodeError:
             raise MapError("not a text map (not valid UTF-8)", source) from None
@@ -117,11 +142,19 @@ def load_map(path: str | Path, *, require_pad: bool = True) -> GridMap:
 def _load_png(path: Path) -> GridMap:
     source = str(path)
     try:
-        with Image.open(path) as image:
-            image.load()
-            rgba = image.convert("RGBA")
+        with warnings.catch_warnings():
+            # PIL warns of a decompression bomb already at the header: far beyond the limit.
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            with Image.open(path) as image:  # reads the header only
+                check_map_size(image.height, image.width, source)
+                image.load()
+                rgba = image.convert("RGBA")
     except UnidentifiedImageError:
         raise MapError("not a valid image", source) from None
+    except (Image.DecompressionBombError, Image.DecompressionBombWarning):
+        raise MapError(
+            f"image larger than a map may be ({MAX_MAP_CELLS:,} cells)", source
+        ) from None
     except OSError as exc:
         raise MapError(f"cannot read file: {exc.strerror or exc}", source) from None
     background = Image.new("RGBA", rgba.size, (255, 255, 255, 255))

@@ -11,10 +11,12 @@ import io
 import json
 import math
 import os
+import struct
 import subprocess
 import sys
 import tempfile
 import unicodedata
+import zlib
 from pathlib import Path
 
 import pytest
@@ -383,3 +385,67 @@ async def test_an_impostor_does_not_take_the_reply_address(follow: bool) -> None
         for peer in peers:
             assert peer.transport is not None
             peer.transport.close()
+
+
+# -- hostile maps and mission files ------------------------------------------------------
+
+
+def _png_header_only(width: int, height: int) -> bytes:
+    """A PNG that claims ``width`` x ``height`` pixels and holds one tiny IDAT."""
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        crc = zlib.crc32(kind + body) & 0xFFFFFFFF
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", crc)
+
+    header = struct.pack(">IIBBBBB", width, height, 1, 0, 0, 0, 0)  # 1-bit greyscale
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(b"\x00" * 64))
+        + chunk(b"IEND", b"")
+    )
+
+
+def _mission_with_map(folder: Path, map_name: str, name: str = "hostile") -> Path:
+    path = folder / "mission.yaml"
+    path.write_text(
+        f"name: {json.dumps(name)}\nmap: {map_name}\ncharger: [1, 1]\n"
+        "fleet:\n  vehicles:\n    - {sysid: 1, type: rover}\n"
+    )
+    return path
+
+
+@pytest.mark.parametrize("side", [12_000, 20_000])
+def test_a_png_map_larger_than_the_limit_is_refused_unread(tmp_path: Path, side: int) -> None:
+    """A few kilobytes claiming hundreds of millions of pixels: refused from the header,
+    one line, exit 2 (it used to take 6-7 GB, or raise a decompression-bomb traceback)."""
+    (tmp_path / "map.png").write_bytes(_png_header_only(side, side))
+    done = gcs("plan", str(_mission_with_map(tmp_path, "map.png")), "--quiet")
+    assert done.returncode == 2, done.stderr
+    assert "Traceback" not in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1
+    assert "4,000,000 cells" in done.stderr
+
+
+def test_an_ascii_map_larger_than_the_limit_is_refused_unread(tmp_path: Path) -> None:
+    with (tmp_path / "map.txt").open("wb") as sparse:  # 400 MB that take no disk
+        sparse.truncate(20_000 * 20_001)
+    done = gcs("plan", str(_mission_with_map(tmp_path, "map.txt")), "--quiet")
+    assert done.returncode == 2, done.stderr
+    assert "Traceback" not in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("name", ["\ud800", "bell\u0007", "two\nlines"])
+def test_a_mission_name_that_is_not_printable_is_refused(tmp_path: Path, name: str) -> None:
+    (tmp_path / "map.txt").write_text("####\n#C.#\n####\n")
+    path = tmp_path / "mission.yaml"
+    escaped = json.dumps(name)  # YAML reads JSON string escapes, \ud800 included
+    path.write_text(
+        f"name: {escaped}\nmap: map.txt\nfleet:\n  vehicles:\n    - {{sysid: 1, type: rover}}\n"
+    )
+    done = gcs("plan", str(path), "--quiet")
+    assert done.returncode == 2, done.stderr
+    assert "Traceback" not in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1
+    assert "name" in done.stderr

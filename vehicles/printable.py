@@ -31,3 +31,11 @@ def printable(text: str, limit: int = 200) -> str:
             space = False
         out.append(REPLACEMENT if unicodedata.category(char).startswith("C") else char)
     return "".join(out)[:limit]
+
+
+def is_printable(text: str) -> bool:
+    """Whether ``text`` holds no character ``printable`` would replace (spaces aside)."""
+    return not any(
+        unicodedata.category(char).startswith("C") or (char.isspace() and char != " ")
+        for char in text
+    )

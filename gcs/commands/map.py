@@ -13,7 +13,7 @@ from pathlib import Path
 from gcs.errors import EXIT_BAD_INPUT, EXIT_OK
 from sitl_mock import mapgen
 from sitl_mock.gridmap import GridMap
-from sitl_mock.maps import to_ascii
+from sitl_mock.maps import MAX_MAP_CELLS, to_ascii
 
 
 class MapKind(StrEnum):
@@ -37,7 +37,12 @@ def _size(text: str) -> tuple[int, int]:
     match = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
     if not match:
         raise argparse.ArgumentTypeError(f"expected HEIGHTxWIDTH such as 30x30, got {text!r}")
-    return int(match[1]), int(match[2])
+    rows, cols = int(match[1]), int(match[2])
+    if rows * cols > MAX_MAP_CELLS:
+        raise argparse.ArgumentTypeError(
+            f"{rows}x{cols} is more than the {MAX_MAP_CELLS:,} cells a map may have"
+        )
+    return rows, cols
 
 
 def _bars_options(parser: argparse.ArgumentParser) -> None:
