@@ -34,9 +34,10 @@ from tests.test_link_commands import FAST, connected
 from tests.test_link_fake import FakeOptions, FakeVehicle
 from tests.test_live_mission import SMALL, write_mission
 from vehicles.endpoints import free_loopback_udp_ports
-from vehicles.errors import LinkError, MissionError
+from vehicles.errors import LinkError, MissionError, MissionTimeout
 from vehicles.link import VehicleLink
 from vehicles.mission_items import MissionItem
+from vehicles.mission_protocol import MissionSettings
 from vehicles.printable import printable
 from vehicles.telemetry import StatusText, TelemetryCache, Topic
 
@@ -449,3 +450,46 @@ def test_a_mission_name_that_is_not_printable_is_refused(tmp_path: Path, name: s
     assert "Traceback" not in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1
     assert "name" in done.stderr
+
+
+# -- a slow peer -------------------------------------------------------------------------
+
+SLOW_PEER_LINK = dataclasses.replace(
+    FAST,
+    mission=MissionSettings(timeout_s=0.1, item_timeout_s=0.05, retries=5),
+)
+
+
+async def test_a_download_dragged_on_by_its_peer_has_a_deadline() -> None:
+    """The vehicle answers one item request in five: every item still comes, after
+    resends, but the whole download has a deadline from its size and the round trip
+    measured at its start, and ends with a MissionTimeout instead of going on for ever."""
+    home = MissionItem.waypoint(0, 47.3977, 8.5456, 0.0)
+    async with FakeVehicle(FakeOptions(answer_every=5)) as fake:
+        fake.mission = [home.with_seq(i) for i in range(60)]
+        link = await VehicleLink.connect(fake.endpoint, settings=SLOW_PEER_LINK)
+        try:
+            await link.wait_heartbeat(timeout_s=2.0)
+            loop = asyncio.get_running_loop()
+            start = loop.time()
+            with pytest.raises(MissionTimeout, match="not done within"):
+                async with asyncio.timeout(30):
+                    await link.download_mission()
+            # 60 items at one answer in five take about 12 s; the deadline is
+            # 0.6 s + 60 x 0.05 s, so it fired long before
+            assert loop.time() - start < 8.0
+        finally:
+            await link.close()
+
+
+async def test_an_upload_asked_for_item_0_for_ever_has_a_deadline() -> None:
+    home = MissionItem.waypoint(0, 47.3977, 8.5456, 0.0)
+    async with FakeVehicle(FakeOptions(rerequest_first=True, item_timeout_s=0.01)) as fake:
+        link = await VehicleLink.connect(fake.endpoint, settings=SLOW_PEER_LINK)
+        try:
+            await link.wait_heartbeat(timeout_s=2.0)
+            with pytest.raises(MissionTimeout, match="not done within"):
+                async with asyncio.timeout(30):
+                    await link.upload_mission([home.with_seq(i) for i in range(20)])
+        finally:
+            await link.close()

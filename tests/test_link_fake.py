@@ -51,6 +51,10 @@ class FakeOptions:
     #: seq -> the message sent for that item when it is requested, whatever it holds (a
     #: vehicle that sends what it likes).
     raw_items: dict[int, Message] = field(default_factory=dict)
+    #: Answer only every n-th request for a mission item (a peer that drags a download on).
+    answer_every: int = 1
+    #: On an upload, ask for item 0 again and again and never for the next.
+    rerequest_first: bool = False
 
 
 class FakeVehicle:
@@ -72,6 +76,7 @@ class FakeVehicle:
         self._tasks: set[asyncio.Task[None]] = set()
         self._items: asyncio.Queue[Message] = asyncio.Queue()
         self._receiving = False
+        self._item_requests = 0
         self._script = {k: deque(v) for k, v in self.o.command_script.items()}
         self._waiters: dict[str, list[asyncio.Future[Message]]] = defaultdict(list)
 
@@ -245,6 +250,9 @@ class FakeVehicle:
             self.rng.shuffle(order)
         got: dict[int, MissionItem] = {}
         try:
+            while self.o.rerequest_first:
+                self._request(0)
+                await self._wait_item(0)
             for seq in order:
                 for _attempt in range(self.o.item_retries):
                     self._request(seq)
@@ -281,6 +289,9 @@ class FakeVehicle:
         self.send(mavlink.MAVLink_mission_count_message(255, 190, len(self.mission), 0))
 
     def _on_mission_request_int(self, msg: Message) -> None:
+        self._item_requests += 1
+        if self._item_requests % self.o.answer_every:
+            return
         if msg.seq in self.o.raw_items:
             self.send(self.o.raw_items[msg.seq])
         elif 0 <= msg.seq < len(self.mission):

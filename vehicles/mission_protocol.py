@@ -45,6 +45,17 @@ class MissionSettings:
     no_space_retry_s: float = 2.0
     #: Give up on MAV_MISSION_NO_SPACE after this long.
     no_space_wait_s: float = 30.0
+    #: The whole transfer of the items has a deadline: ``timeout_s`` per resend allowed,
+    #: plus per item this many of the round trips measured on its first exchange (or
+    #: ``item_timeout_s``, if longer). A peer that answers one request in five, or asks
+    #: for item 0 again and again, is given up instead of kept for hours.
+    round_trips_per_item: float = 10.0
+
+
+def _deadline_s(settings: MissionSettings, items: int, round_trip_s: float) -> float:
+    """The time the items of a transfer may take, from its size and the link's pace."""
+    per_item = max(settings.item_timeout_s, settings.round_trips_per_item * round_trip_s)
+    return settings.timeout_s * (settings.retries + 1) + items * per_item
 
 
 @dataclass(frozen=True)
@@ -128,11 +139,19 @@ class MissionClient:
         match = self._from_target(_REQUESTS | {"MISSION_ACK"}, mission_type)
         async with self._router.inbox(match) as inbox:
             self._send(count_msg)
+            count_sent = time.monotonic()
             last_sent: Message = count_msg
             highest_sent = -1
             retries_left = s.retries
             no_space_since: float | None = None
+            deadline: float | None = None  # set by the first request
             while True:
+                if deadline is not None and time.monotonic() > deadline:
+                    raise MissionTimeout(
+                        "upload",
+                        f"not done within {deadline - count_sent:.1f} s for {len(items)} items",
+                        seq=highest_sent + 1,
+                    )
                 try:
                     msg = await inbox.get(s.timeout_s)
                 except TimeoutError:
@@ -193,6 +212,9 @@ class MissionClient:
                     )
 
                 # MISSION_REQUEST or MISSION_REQUEST_INT
+                if deadline is None:
+                    now = time.monotonic()
+                    deadline = now + _deadline_s(s, len(items), now - count_sent)
                 seq = msg.seq
                 if not 0 <= seq < len(items):
                     log.warning("vehicle asked for item %d of %d; ignored", seq, len(items))
@@ -231,6 +253,7 @@ class MissionClient:
             request_list = mavlink.MAVLink_mission_request_list_message(
                 system, component, mission_type
             )
+            asked = time.monotonic()
             try:
                 count = await send_and_wait(
                     lambda: self._send(request_list),
@@ -241,9 +264,17 @@ class MissionClient:
                 )
             except TimeoutError:
                 raise MissionTimeout("download", "no MISSION_COUNT from the vehicle") from None
+            now = time.monotonic()
+            deadline = now + _deadline_s(s, count, now - asked)
 
             items: list[MissionItem] = []
             for seq in range(count):
+                if time.monotonic() > deadline:
+                    raise MissionTimeout(
+                        "download",
+                        f"not done within {deadline - now:.1f} s for {count} items",
+                        seq=seq,
+                    )
                 request = mavlink.MAVLink_mission_request_int_message(
                     system, component, seq, mission_type
                 )
