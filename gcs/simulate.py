@@ -34,6 +34,7 @@ LOGGED_EVENTS = frozenset(
         EventKind.CHARGED,
         EventKind.SAFETY_NET,
         EventKind.COVERAGE_COMPLETE,
+        EventKind.CUT_OFF,
         EventKind.LOST,
     }
 )
@@ -270,6 +271,7 @@ def simulate(
         planner_s=planner_s,
         extra={
             "btps_detected": coordinator.btps_detected,
+            "cut_off_cells": coordinator.cut_off_cells,
             "total_iterations": iteration,
             **(
                 {

@@ -81,8 +81,9 @@ class MapBelief:
         #: distances between those cells as they were.
         self.shortcuts = array("q", bytes(8 * size))
         self.shortcut_count = 0
-        #: How many free cells were blocked for good (``block``).
+        #: How many free cells were blocked for good (``block``), and which.
         self.blocked_count = 0
+        self.blocked: list[int] = []
         #: How many cells are known to be impassable (obstacles sensed, cells blocked).
         self.walls_count = 0
         self._listed_at = array("q", bytes(8 * size))
@@ -174,6 +175,7 @@ class MapBelief:
         self.state[i] = _OBSTACLE
         self.free_count -= 1
         self.blocked_count += 1
+        self.blocked.append(i)
         self.walls_count += 1
         self._drop_uncovered(i)
         dist = self.charger_dist

@@ -100,6 +100,9 @@ class EventKind(StrEnum):
     CHARGED = "charged"
     OUT_OF_RANGE = "out_of_range"
     COVERAGE_COMPLETE = "coverage_complete"
+    #: Nothing left in reach, but only because lost vehicles stand in the way: what
+    #: lies beyond them is cut off, not covered (the event's cell: one of them).
+    CUT_OFF = "cut_off"
     LOST = "lost"
 
 
@@ -246,6 +249,8 @@ class Coordinator:
         self._events: list[PlannerEvent] = []
         self._complete = False
         self._witness: int | None = None  # see ``coverage_complete``
+        #: Cells found cut off behind lost vehicles when coverage ended (``CUT_OFF``).
+        self.cut_off_cells = 0
         self._witness_key: tuple[float | None, int] | None = None
         self._recalled = False  # see ``recall``
         self._search = TargetSearch(self.belief)
@@ -321,9 +326,30 @@ class Coordinator:
             self._witness_key = None
         complete = witness is None
         if complete and not self._complete:
-            self._events.append(PlannerEvent(EventKind.COVERAGE_COMPLETE, -1))
+            self.cut_off_cells = self._cut_off_by_lost()
+            if self.cut_off_cells:
+                where = self.belief.cell(self.belief.blocked[0])
+                self._events.append(PlannerEvent(EventKind.CUT_OFF, -1, where))
+            else:
+                self._events.append(PlannerEvent(EventKind.COVERAGE_COMPLETE, -1))
         self._complete = complete
         return complete
+
+    def _cut_off_by_lost(self) -> int:
+        """Cells not known to be walls that the charger could reach if the lost vehicles
+        were not in the way, and cannot while they are (0 without lost vehicles)."""
+        belief = self.belief
+        if not belief.blocked:
+            return 0
+        state = np.frombuffer(belief.state, dtype=np.uint8)
+        passable = state != _OBSTACLE
+        passable_without = passable.copy()
+        passable_without[belief.blocked] = True
+        parts, _ = ndimage.label(passable_without.reshape(-1, belief.stride))
+        parts = parts.ravel()
+        beyond = (parts == parts[belief.charger_index]) & ~self._open_from_charger()
+        beyond[belief.blocked] = False
+        return int(beyond.sum())
 
     def _uncovered_in_range(self) -> int | None:
         """An uncovered cell that some agent can reach and come back from, or None.

@@ -373,6 +373,26 @@ def test_a_lost_agent_blocks_its_cell_and_what_lies_behind_it() -> None:
         assert action.kind != ActionKind.MOVE, "nothing is reachable past the lost agent"
     assert c.mode(2) == AgentMode.DONE
     assert len(c.out_of_range_cells()) == 8  # the four cells on each side of the door
+    # Nothing is left in reach, but coverage is not complete: the rooms are cut off.
+    kinds = [e.kind for e in c.drain_events()]
+    assert EventKind.CUT_OFF in kinds and EventKind.COVERAGE_COMPLETE not in kinds
+    assert c.cut_off_cells == 8
+
+
+def test_coverage_without_a_loss_is_complete_not_cut_off() -> None:
+    c = _door()
+    for _ in range(400):
+        if c.finished:
+            break
+        for agent in (1, 2):
+            action = c.decide(agent)
+            if action.kind == ActionKind.MOVE:
+                assert action.to is not None
+                c.observe(agent, action.to, {}, 100.0)
+    assert c.finished
+    kinds = [e.kind for e in c.drain_events()]
+    assert EventKind.COVERAGE_COMPLETE in kinds and EventKind.CUT_OFF not in kinds
+    assert c.cut_off_cells == 0
 
 
 def test_an_agent_walled_in_by_a_lost_one_gives_up() -> None:

@@ -145,6 +145,7 @@ class MissionRecord:
                 "coverage_s": round(self.coverage_s, 2) if self.coverage_s is not None else -1,
                 "arrivals": self.arrivals,
                 "btps_detected": coordinator.btps_detected,
+                "cut_off_cells": coordinator.cut_off_cells,
                 **{f"odometer_m_{i}": round(log.odometer_m, 2) for i, log in self.agents.items()},
                 **(extra or {}),
             },

@@ -122,6 +122,10 @@ _EVENT_TEXT = {
     EventKind.CHARGED: "charging",
     EventKind.OUT_OF_RANGE: "cell {cell} is out of range",
     EventKind.COVERAGE_COMPLETE: "coverage complete: every vehicle goes home",
+    EventKind.CUT_OFF: (
+        "coverage stopped: what is left lies beyond the lost vehicle at {cell}, out of "
+        "reach while it stands there; every vehicle goes home"
+    ),
     EventKind.LOST: "declared lost at {cell}",
     EventKind.SAFETY_NET: "no BTP left: takes frontier cell {cell}",
 }
@@ -355,3 +359,5 @@ class SharedPlanner:
         )
         if event.kind in (EventKind.COVERAGE_COMPLETE, EventKind.RETURN):
             self.notify(message if who is None else f"vehicle {who} {message}", Level.INFO, who)
+        elif event.kind is EventKind.CUT_OFF:
+            self.notify(message, Level.WARNING, None)
