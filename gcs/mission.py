@@ -108,6 +108,7 @@ class VehicleDefaults:
     charge_rate_pct_s: float = 1.0
     steering: Steering = Steering.SKID
     charging: Charging = Charging.AUTO
+    fence: bool = True
 
 
 @dataclass(frozen=True)
@@ -124,6 +125,8 @@ class VehicleSpec:
     steering: Steering = Steering.SKID
     #: How the autopilot learns its charge on the pad.
     charging: Charging = Charging.AUTO
+    #: Upload the mission area as a geofence, switched on, before the vehicle arms.
+    fence: bool = True
 
 
 @dataclass(frozen=True)
@@ -196,6 +199,7 @@ _DEFAULT_KEYS = (
     "charge_rate_pct_s",
     "steering",
     "charging",
+    "fence",
 )
 _VEHICLE_KEYS = ("sysid", "connection", *_DEFAULT_KEYS)
 _PLANNER_KEYS = (
@@ -358,6 +362,7 @@ class _Loader:
             ),
             "steering": self.choice(data, "steering", where, Steering, base.steering),
             "charging": self.choice(data, "charging", where, Charging, base.charging),
+            "fence": self.flag(data, "fence", where, base.fence),
         }
 
     def fleet(self, value: Any) -> tuple[tuple[VehicleSpec, ...], VehicleDefaults]:
@@ -461,6 +466,12 @@ class _Loader:
         )
 
     # ----------------------------------------------------------------- helpers
+
+    def flag(self, data: Mapping[Any, Any], key: str, where: str, default: bool) -> bool:
+        value = data.get(key, default)
+        if not isinstance(value, bool):
+            raise self.fail(f"{where}.{key}", f"must be true or false, got {_show(value)}")
+        return value
 
     def section(self, value: Any, where: str, allowed: Sequence[str]) -> dict[Any, Any]:
         if not isinstance(value, dict):

@@ -50,11 +50,16 @@ class MissionProtocolSettings:
     timeout_s: float = 8.0
 
 
+#: The mission types served: the mission, and the geofence (``sitl_mock.fence``).
+_SERVED = frozenset({mavlink.MAV_MISSION_TYPE_MISSION, mavlink.MAV_MISSION_TYPE_FENCE})
+
+
 @dataclass
 class _Upload:
     peer: Peer
     gcs: tuple[int, int]
     count: int
+    mission_type: int
     items: list[MissionItem] = field(default_factory=list)
     retry: asyncio.TimerHandle | None = None
     deadline: asyncio.TimerHandle | None = None
@@ -118,7 +123,7 @@ class MissionServer:
     def on_count(self, peer: Peer, msg: Any) -> None:
         gcs = self._gcs_of(msg)
         mission_type = int(getattr(msg, "mission_type", 0))
-        if mission_type != mavlink.MAV_MISSION_TYPE_MISSION:
+        if mission_type not in _SERVED:
             result = (
                 mavlink.MAV_MISSION_ACCEPTED if msg.count == 0 else mavlink.MAV_MISSION_UNSUPPORTED
             )
@@ -127,16 +132,27 @@ class MissionServer:
         if self._faults.fires(MissionFailure.WRITE_COUNT_NO_RESPONSE):
             return
         if not self._vehicle.ready or msg.count > self.settings.max_items:
-            self._ack(peer, gcs, mavlink.MAV_MISSION_NO_SPACE)
+            self._ack(peer, gcs, mavlink.MAV_MISSION_NO_SPACE, mission_type)
             return
         self._end_upload()
         self._completed = None
         if msg.count == 0:
-            self._vehicle.replace_mission(())
-            self._ack(peer, gcs, mavlink.MAV_MISSION_ACCEPTED)
+            self._replace(mission_type, ())
+            self._ack(peer, gcs, mavlink.MAV_MISSION_ACCEPTED, mission_type)
             return
-        self._upload = _Upload(peer, gcs, int(msg.count))
+        self._upload = _Upload(peer, gcs, int(msg.count), mission_type)
         self._request_next()
+
+    def _replace(self, mission_type: int, items: Any) -> None:
+        if mission_type == mavlink.MAV_MISSION_TYPE_FENCE:
+            self._vehicle.fence.replace(items)
+        else:
+            self._vehicle.replace_mission(items)
+
+    def _items(self, mission_type: int) -> tuple[MissionItem, ...]:
+        if mission_type == mavlink.MAV_MISSION_TYPE_FENCE:
+            return self._vehicle.fence.items
+        return self._vehicle.mission
 
     def _request_next(self) -> None:
         up = self._upload
@@ -150,15 +166,16 @@ class MissionServer:
         if self._faults.fires(MissionFailure.WRITE_REQUEST_NO_RESPONSE, seq):
             return
         if self._faults.fires(MissionFailure.WRITE_REQUEST_ERROR_ACK, seq):
-            self._ack(up.peer, up.gcs, mavlink.MAV_MISSION_ERROR)
+            self._ack(up.peer, up.gcs, mavlink.MAV_MISSION_ERROR, up.mission_type)
             self._end_upload()
             return
         if self._faults.fires(MissionFailure.WRITE_REQUEST_WRONG_SEQUENCE, seq):
             seq = min(seq + 1, up.count - 1)
         if self.settings.request_style is MissionRequestStyle.MISSION_REQUEST:
-            request = self._codec.mission_request_encode(up.gcs[0], up.gcs[1], seq)
+            encode = self._codec.mission_request_encode
         else:
-            request = self._codec.mission_request_int_encode(up.gcs[0], up.gcs[1], seq)
+            encode = self._codec.mission_request_int_encode
+        request = encode(up.gcs[0], up.gcs[1], seq, up.mission_type)
         self._send(up.peer, request)
 
     def _touch_deadline(self) -> None:
@@ -171,7 +188,7 @@ class MissionServer:
     def _expire(self) -> None:
         up = self._upload
         if up is not None:
-            self._ack(up.peer, up.gcs, mavlink.MAV_MISSION_OPERATION_CANCELLED)
+            self._ack(up.peer, up.gcs, mavlink.MAV_MISSION_OPERATION_CANCELLED, up.mission_type)
             self._end_upload()
 
     def _end_upload(self) -> None:
@@ -184,19 +201,20 @@ class MissionServer:
         self._upload = None
 
     def on_item(self, peer: Peer, msg: Any) -> None:
-        if int(getattr(msg, "mission_type", 0)) != mavlink.MAV_MISSION_TYPE_MISSION:
-            return
+        mission_type = int(getattr(msg, "mission_type", 0))
         up = self._upload
         if up is None:
             if self._completed == (peer.name, msg.seq):
-                self._ack(peer, self._gcs_of(msg), mavlink.MAV_MISSION_ACCEPTED)
+                self._ack(peer, self._gcs_of(msg), mavlink.MAV_MISSION_ACCEPTED, mission_type)
+            return
+        if mission_type != up.mission_type:
             return
         if peer is not up.peer:
             return  # another ground station's item: ArduPilot serves one upload at a time
         if msg.seq < up.expected:
             return  # a repeat: the next request is on its way (or repeated by the timer)
         if msg.seq > up.expected:
-            self._ack(peer, up.gcs, mavlink.MAV_MISSION_INVALID_SEQUENCE)
+            self._ack(peer, up.gcs, mavlink.MAV_MISSION_INVALID_SEQUENCE, up.mission_type)
             return
         self._touch_deadline()
         up.items.append(MissionItem.from_message(msg))
@@ -208,13 +226,14 @@ class MissionServer:
     def _finish(self, up: _Upload) -> None:
         self._end_upload()
         if self._faults.fires(MissionFailure.WRITE_FINAL_ACK_ERROR):
-            self._ack(up.peer, up.gcs, mavlink.MAV_MISSION_ERROR)
+            self._ack(up.peer, up.gcs, mavlink.MAV_MISSION_ERROR, up.mission_type)
             return
-        self._vehicle.replace_mission(up.items)
+        self._replace(up.mission_type, up.items)
         self._completed = (up.peer.name, up.count - 1)
         if not self._faults.fires(MissionFailure.WRITE_FINAL_ACK_NO_RESPONSE):
-            self._ack(up.peer, up.gcs, mavlink.MAV_MISSION_ACCEPTED)
-        self._announce(StatusText(Severity.INFO, "Flight plan received"))
+            self._ack(up.peer, up.gcs, mavlink.MAV_MISSION_ACCEPTED, up.mission_type)
+        if up.mission_type == mavlink.MAV_MISSION_TYPE_MISSION:
+            self._announce(StatusText(Severity.INFO, "Flight plan received"))
 
     # ------------------------------------------------------------------ download
 
@@ -223,20 +242,19 @@ class MissionServer:
         mission_type = int(getattr(msg, "mission_type", 0))
         if self._faults.fires(MissionFailure.READ_LIST_NO_RESPONSE):
             return
-        count = (
-            len(self._vehicle.mission) if mission_type == mavlink.MAV_MISSION_TYPE_MISSION else 0
-        )
+        count = len(self._items(mission_type)) if mission_type in _SERVED else 0
         self._send(peer, self._codec.mission_count_encode(gcs[0], gcs[1], count, mission_type))
 
     def on_request(self, peer: Peer, msg: Any) -> None:
         gcs = self._gcs_of(msg)
-        mission = self._vehicle.mission
         seq = int(msg.seq)
-        if int(getattr(msg, "mission_type", 0)) != mavlink.MAV_MISSION_TYPE_MISSION:
-            self._ack(peer, gcs, mavlink.MAV_MISSION_UNSUPPORTED, msg.mission_type)
+        mission_type = int(getattr(msg, "mission_type", 0))
+        if mission_type not in _SERVED:
+            self._ack(peer, gcs, mavlink.MAV_MISSION_UNSUPPORTED, mission_type)
             return
+        mission = self._items(mission_type)
         if not 0 <= seq < len(mission):
-            self._ack(peer, gcs, mavlink.MAV_MISSION_INVALID_SEQUENCE)
+            self._ack(peer, gcs, mavlink.MAV_MISSION_INVALID_SEQUENCE, mission_type)
             return
         if self._faults.fires(MissionFailure.READ_ITEM_NO_RESPONSE, seq):
             return
@@ -255,9 +273,9 @@ class MissionServer:
 
     def on_clear_all(self, peer: Peer, msg: Any) -> None:
         mission_type = int(getattr(msg, "mission_type", 0))
-        if mission_type == mavlink.MAV_MISSION_TYPE_MISSION:
+        if mission_type in _SERVED:
             self._end_upload()
-            self._vehicle.replace_mission(())
+            self._replace(mission_type, ())
         self._ack(peer, self._gcs_of(msg), mavlink.MAV_MISSION_ACCEPTED, mission_type)
 
     def on_set_current(self, peer: Peer, msg: Any) -> None:

@@ -2,9 +2,10 @@
 
 Only what describes how the vehicle moves and what a ground station reads to
 plan with it, under ArduPilot's names: WP_RADIUS, WP_SPEED, WP_PIVOT_RATE,
-TURN_RADIUS for a driving rover, BATT_CAPACITY for every vehicle. They are
-read-only: a PARAM_SET is answered with the value unchanged, which tells the
-sender it did not take.
+TURN_RADIUS for a driving rover, BATT_CAPACITY for every vehicle; and the
+geofence's FENCE_ENABLE, FENCE_TYPE and FENCE_ACTION. Only the fence's can be
+set: a PARAM_SET of another is answered with the value unchanged, which tells
+the sender it did not take.
 """
 
 from __future__ import annotations
@@ -19,7 +20,13 @@ _REAL32 = mavlink.MAV_PARAM_TYPE_REAL32
 
 def parameter_values(vehicle: Vehicle) -> dict[str, float]:
     """Name -> value, in a fixed order (the index of PARAM_VALUE)."""
-    values = {"BATT_CAPACITY": vehicle.battery.settings.capacity_mah}
+    fence = vehicle.fence
+    values = {
+        "BATT_CAPACITY": vehicle.battery.settings.capacity_mah,
+        "FENCE_ENABLE": fence.enable,
+        "FENCE_TYPE": fence.kind,
+        "FENCE_ACTION": fence.action,
+    }
     drive = vehicle.settings.drive
     if vehicle.drive is not None and drive is not None:
         values |= {
@@ -58,6 +65,30 @@ def answer(codec: mavlink.MAVLink, vehicle: Vehicle, msg: Message) -> list[Messa
         reply = param_value(codec, vehicle, name)
         return [] if reply is None else [reply]
     if kind == "PARAM_SET":
-        reply = param_value(codec, vehicle, _name(msg.param_id))
+        name = _name(msg.param_id)
+        setter = _FENCE_SETTERS.get(name)
+        if setter is not None:
+            setter(vehicle, float(msg.param_value))
+        reply = param_value(codec, vehicle, name)
         return [] if reply is None else [reply]
     return []
+
+
+def _set_enable(vehicle: Vehicle, value: float) -> None:
+    vehicle.fence.enable = value
+
+
+def _set_type(vehicle: Vehicle, value: float) -> None:
+    vehicle.fence.kind = value
+
+
+def _set_action(vehicle: Vehicle, value: float) -> None:
+    vehicle.fence.action = value
+
+
+#: The parameters a ground station may set, and how.
+_FENCE_SETTERS = {
+    "FENCE_ENABLE": _set_enable,
+    "FENCE_TYPE": _set_type,
+    "FENCE_ACTION": _set_action,
+}

@@ -17,6 +17,7 @@ go to subscribers as they happen.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import random
 from collections.abc import Callable, Sequence
@@ -36,6 +37,7 @@ from sitl_mock.events import (
     VehicleEvent,
 )
 from sitl_mock.failsafe import FailsafeAction, GcsFailsafe, GcsWatch
+from sitl_mock.fence import Fence, FenceAction
 from sitl_mock.mission_items import MissionItem
 from sitl_mock.modes import PROFILES, Behaviour, KindProfile, VehicleKind
 from sitl_mock.ranging import axis_exit
@@ -137,6 +139,7 @@ class Vehicle:
         self.elapsed_s = 0.0
         self.dead = False
         self.mission: tuple[MissionItem, ...] = ()
+        self.fence = Fence()
         self.mission_seq = 0
         self.mission_state = mavlink.MISSION_STATE_NO_MISSION
         self._goal: Goal | None = None
@@ -344,6 +347,29 @@ class Vehicle:
         if action is not FailsafeAction.NONE and self.profile.failsafe_hold_mode is not None:
             self.set_mode(self.profile.failsafe_hold_mode)
 
+    def _check_fence(self) -> None:
+        """A breach of the geofence (``sitl_mock.fence``), acted on once, as ArduPilot."""
+        fence = self.fence
+        if not (self.armed and fence.active):
+            return
+        inside = fence.contains(*self.lat_lon_deg)
+        if inside or fence.breached:
+            fence.breached = not inside
+            return
+        fence.breached = True
+        self._say("Fence Breached", Severity.CRITICAL)
+        action = int(fence.action)
+        if action == FenceAction.REPORT:
+            return
+        if action == FenceAction.RTL:
+            with contextlib.suppress(CommandRefused):
+                self.return_to_launch()
+                return
+        if self.profile.flies:
+            self.land()
+        elif self.profile.failsafe_hold_mode is not None:
+            self.set_mode(self.profile.failsafe_hold_mode)
+
     def _check_gcs_failsafe(self) -> None:
         if self._gcs.active or not self.armed or not self._gcs.overdue(self.elapsed_s):
             return
@@ -465,6 +491,7 @@ class Vehicle:
         self._check_gcs_failsafe()
         before = (self.north_m, self.east_m, self.alt_m)
         moved_m = self._move(dt_s) if self.armed else 0.0
+        self._check_fence()
         self.velocity_ned_m_s = (
             (self.north_m - before[0]) / dt_s,
             (self.east_m - before[1]) / dt_s,

@@ -27,17 +27,29 @@ from rich.console import Console
 
 from gcs.cli import main
 from gcs.live.display import LiveDisplay
+from gcs.live.mission import fence_vertices
+from gcs.live.pilot import Pilot
 from gcs.live.shared import Level
 from gcs.log_reader import LogError, read_log
+from gcs.mission import Mission
 from gcs.result import RunResult
+from sitl_mock.drive import DriveSettings
+from sitl_mock.events import StatusText as MockStatusText
+from sitl_mock.fence import Fence as MockFence
+from sitl_mock.modes import Behaviour
 from tests.test_link_commands import FAST, connected
 from tests.test_link_fake import FakeOptions, FakeVehicle
+from tests.test_link_vs_mock import BODY_S, SPEEDUP, UDP, linked
+from tests.test_link_vs_mock import mission as mission
 from tests.test_live_mission import SMALL, write_mission
+from vehicles.clock import ScaledClock
 from vehicles.endpoints import free_loopback_udp_ports
 from vehicles.errors import LinkError, MissionError, MissionTimeout
+from vehicles.fence import inclusion_fence
 from vehicles.link import VehicleLink
 from vehicles.mission_items import MissionItem
 from vehicles.mission_protocol import MissionSettings
+from vehicles.modes import VehicleKind
 from vehicles.printable import printable
 from vehicles.telemetry import StatusText, TelemetryCache, Topic
 
@@ -493,3 +505,59 @@ async def test_an_upload_asked_for_item_0_for_ever_has_a_deadline() -> None:
                     await link.upload_mission([home.with_seq(i) for i in range(20)])
         finally:
             await link.close()
+
+
+# -- the geofence ------------------------------------------------------------------------
+
+
+async def test_a_fenced_rover_stops_at_the_fence_after_the_station_falls_silent(
+    mission: Mission,
+) -> None:
+    """The station fences a rover in (the west half of the map: columns 0-4), sends it
+    toward column 8 (17 m east) and falls silent. ArduPilot holds at the breach; so does
+    the mock: the rover ends in HOLD, armed and stopped, at most the roll from its speed
+    past the fence (2 m/s rolls about 3 m), short of its target."""
+    from gcs.sitl_cli import mock_fleet_configs
+
+    base = mock_fleet_configs(mission)[0].vehicle
+    geo, size = mission.geo, mission.cell_size_m
+    fence_east_m = 5 * size
+    corners = ((size, -size), (size, fence_east_m), (-8 * size, fence_east_m), (-8 * size, -size))
+    vertices = [geo.local_to_geo(north, east) for north, east in corners]
+    changes = {"vehicle": dataclasses.replace(base, drive=DriveSettings(), speed_m_s=2.0)}
+    async with asyncio.timeout(BODY_S), linked(mission, UDP, **changes) as pair:
+        pilot = Pilot(pair.link, VehicleKind.ROVER, geo, ScaledClock(SPEEDUP), 2.0)
+        await pilot.set_fence(vertices)
+        truth = pair.truth
+        assert truth.fence.active and int(truth.fence.action) == 2
+        texts: list[str] = []
+        truth.subscribe(lambda e: texts.append(e.text) if isinstance(e, MockStatusText) else None)
+        await pilot.underway()
+        north, east = geo.cell_centre_local((0, 8))
+        lat, lon = geo.local_to_geo(north, east)
+        await pair.link.goto(lat, lon, 0.0)
+        await pair.link.close()  # the station falls silent
+        while not (
+            truth.behaviour is Behaviour.HOLD and math.hypot(*truth.velocity_ned_m_s[:2]) < 0.05
+        ):
+            await asyncio.sleep(0.05)
+        assert "Fence Breached" in texts
+        assert truth.armed  # held, under the autopilot's control
+        assert fence_east_m <= truth.east_m <= fence_east_m + 4.0, truth.east_m
+
+
+def test_the_mission_fence_holds_every_cell_of_the_map(mission: Mission) -> None:
+    """The fence the station uploads (``fence_vertices``) encloses the whole map with a
+    cell to spare: no cell a vehicle is sent to can breach it."""
+    fence = MockFence()
+    fence.replace(inclusion_fence(fence_vertices(mission)))
+    fence.enable = 1.0
+    assert fence.active
+    rows, cols = mission.map.shape
+    geo = mission.geo
+    for row in (-1, 0, rows // 2, rows - 1, rows):
+        for col in (-1, 0, cols // 2, cols - 1, cols):
+            centre = geo.local_to_geo(*geo.cell_centre_local((row, col)))
+            assert fence.contains(*centre) == (row in range(-1, rows + 1)), (row, col)
+    far = geo.local_to_geo(*geo.cell_centre_local((rows + 2, cols + 2)))
+    assert not fence.contains(*far)

@@ -66,6 +66,20 @@ class AutopilotFlavour(Protocol):
         """The parameters that say how this vehicle moves (``vehicles.driving``)."""
         ...
 
+    def fence_params(self, kind: VehicleKind) -> FenceParams:
+        """How to switch a geofence on, with the breach action of the safe state (a
+        rover holds, a copter lands)."""
+        ...
+
+
+@dataclass(frozen=True)
+class FenceParams:
+    #: Parameters set to these values.
+    values: dict[str, float]
+    #: Parameters whose bits are set (read, OR-ed, written back): the operator's own
+    #: fences of other kinds stay.
+    bits: dict[str, int]
+
 
 @dataclass(frozen=True)
 class ArduPilotFlavour:
@@ -97,6 +111,10 @@ class ArduPilotFlavour:
 
     def limit_params(self, kind: VehicleKind) -> dict[str, Param]:
         return _ARDUPILOT_LIMIT_PARAMS.get(kind, {})
+
+    def fence_params(self, kind: VehicleKind) -> FenceParams:
+        # FENCE_ACTION 2: Hold on Rover, Land on Copter; FENCE_TYPE bit 4: polygons.
+        return FenceParams({"FENCE_ACTION": 2.0, "FENCE_ENABLE": 1.0}, {"FENCE_TYPE": 4})
 
 
 @dataclass(frozen=True)
@@ -132,6 +150,10 @@ class Px4Flavour:
 
     def limit_params(self, kind: VehicleKind) -> dict[str, Param]:
         return {"acceptance_radius_m": Param("NAV_ACC_RAD")}
+
+    def fence_params(self, kind: VehicleKind) -> FenceParams:
+        # GF_ACTION 2: Hold mode, 5: Land mode; a PX4 fence is on once uploaded.
+        return FenceParams({"GF_ACTION": 5.0 if kind is VehicleKind.COPTER else 2.0}, {})
 
 
 _ARDUPILOT_MODES: dict[VehicleKind, dict[FlightMode, IntEnum]] = {

@@ -554,6 +554,10 @@ class VehicleLink:
         """A parameter's value; ``ParameterUnavailable`` if the vehicle does not answer."""
         return await self.parameters.read(name)
 
+    async def set_param(self, name: str, value: float) -> None:
+        """Set a parameter; ``ParameterRejected`` if the vehicle keeps another value."""
+        await self.parameters.write(name, value)
+
     # -- mission ------------------------------------------------------------------------
 
     async def upload_mission(

@@ -429,6 +429,31 @@ async def _get_ready(
             raise MissionRefused(f"{who}: not ready: {exc}") from exc
     view.detail = "its driving settings"
     await pilot.learn_limits()
+    if spec.fence:
+        view.detail = "its geofence"
+        try:
+            await pilot.set_fence(fence_vertices(mission))
+        except LinkError as exc:
+            raise MissionRefused(
+                f"{who}: the geofence was not taken ({exc}); set 'fence: false' for this "
+                "vehicle to fly without one"
+            ) from exc
+
+
+def fence_vertices(mission: Mission) -> list[tuple[float, float]]:
+    """The mission area's outer boundary, one cell outside the map on every side (a
+    rover stopping at a border cell may roll on a little): (latitude, longitude)
+    corners, clockwise from the north-west."""
+    rows, cols = mission.map.shape
+    size, geo = mission.cell_size_m, mission.geo
+    north, south = size, -(rows + 1) * size
+    west, east = -size, (cols + 1) * size
+    return [
+        geo.local_to_geo(north, west),
+        geo.local_to_geo(north, east),
+        geo.local_to_geo(south, east),
+        geo.local_to_geo(south, west),
+    ]
 
 
 #: Mission seconds between requests for the home position while the estimator has none.

@@ -33,6 +33,7 @@ from vehicles.driving import (
     read_driving_limits,
 )
 from vehicles.errors import CommandDenied, CommandError, LinkError, MissionTimeout
+from vehicles.fence import FENCE, inclusion_fence
 from vehicles.geo import GeoFrame
 from vehicles.link import VehicleLink
 from vehicles.mission_items import MissionItem, same_items
@@ -167,6 +168,26 @@ class Pilot:
         if not self.flies:
             self.limits = await read_driving_limits(self.link)
         return self.limits
+
+    async def set_fence(self, vertices: Sequence[tuple[float, float]]) -> None:
+        """Upload an inclusion fence of (latitude, longitude) vertices, read it back, and
+        switch it on with the safe state as its breach action (``vehicles.fence``):
+        ``LinkError`` if the vehicle does not take it."""
+        link = self.link
+        items = inclusion_fence(vertices)
+        await link.upload_mission(items, mission_type=FENCE)
+        if not same_items(items, await link.download_mission(FENCE)):
+            raise LinkError("the vehicle holds another fence than the one sent")
+        profile = link.profile
+        if profile is None:
+            raise LinkError("the vehicle's autopilot is not known: its fence cannot be enabled")
+        params = profile.flavour.fence_params(profile.kind)
+        for name, bits in params.bits.items():
+            value = int(await link.read_param(name))
+            if value & bits != bits:
+                await link.set_param(name, value | bits)
+        for name, value in params.values.items():
+            await link.set_param(name, value)
 
     # -- time and state --------------------------------------------------------------
 
