@@ -168,7 +168,10 @@ class Agent:
             lost = f"internal error: {exc!r}"
         try:
             if lost is not None:
-                await self.planner.mark_lost(self.id, lost)
+                try:
+                    await self.planner.mark_lost(self.id, lost)
+                except Exception:  # the planner broken too: the vehicle is made safe anyway
+                    log.exception("vehicle %d: the planner could not record the loss", self.id)
                 await self._make_safe()
         finally:
             for task in self._helpers:
