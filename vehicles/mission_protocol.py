@@ -46,16 +46,19 @@ class MissionSettings:
     #: Give up on MAV_MISSION_NO_SPACE after this long.
     no_space_wait_s: float = 30.0
     #: The whole transfer of the items has a deadline: ``timeout_s`` per resend allowed,
-    #: plus per item this many of the round trips measured on its first exchange (or
-    #: ``item_timeout_s``, if longer). A peer that answers one request in five, or asks
-    #: for item 0 again and again, is given up instead of kept for hours.
+    #: plus this many of the round trips measured on its first exchange per item, and
+    #: never less than ``min_transfer_s`` (a vehicle re-requests a lost item only every
+    #: second or so: a short transfer on a lossy radio needs that time). A peer that
+    #: answers one request in five, or asks for item 0 again and again, is given up
+    #: instead of kept for hours.
     round_trips_per_item: float = 10.0
+    min_transfer_s: float = 30.0
 
 
 def _deadline_s(settings: MissionSettings, items: int, round_trip_s: float) -> float:
     """The time the items of a transfer may take, from its size and the link's pace."""
-    per_item = max(settings.item_timeout_s, settings.round_trips_per_item * round_trip_s)
-    return settings.timeout_s * (settings.retries + 1) + items * per_item
+    pace = items * settings.round_trips_per_item * round_trip_s
+    return settings.timeout_s * (settings.retries + 1) + max(settings.min_transfer_s, pace)
 
 
 @dataclass(frozen=True)

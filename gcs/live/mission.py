@@ -66,6 +66,7 @@ from vehicles.keyfile import KeyFile
 from vehicles.link import LinkSettings, VehicleLink, rejected_frames
 from vehicles.mission_protocol import MissionSettings
 from vehicles.modes import FlightMode, VehicleKind
+from vehicles.parameters import ParameterSettings
 from vehicles.telemetry import Position, Topic
 
 log = logging.getLogger(__name__)
@@ -167,6 +168,11 @@ class LiveRun:
         return 0.0 if self.started_at is None else self.clock.now() - self.started_at
 
 
+#: The readiness wait in real seconds at least: it is made of protocol exchanges (rates,
+#: parameters, the geofence) whose resends run on the network's time, not the mission's;
+#: at a high speed-up the mission-time bound alone left a lossy link a few real seconds.
+READY_MIN_REAL_S = 60.0
+
 #: Our heartbeat period, mission seconds.
 HEARTBEAT_PERIOD_S = 0.5
 
@@ -192,6 +198,7 @@ def link_settings(options: LiveOptions, clock: Clock) -> LinkSettings:
         follow_address=options.follow_address,
         not_ready_retry_s=0.2,
         commands=CommandSettings(timeout_s=0.25, retries=6, in_progress_timeout_s=5.0),
+        parameters=ParameterSettings(timeout_s=0.25, retries=8),
         mission=MissionSettings(
             timeout_s=0.4, item_timeout_s=0.15, retries=16, no_space_retry_s=0.5
         ),
@@ -361,7 +368,7 @@ async def _ready(
             EXIT_BAD_INPUT,
         )
     try:
-        async with asyncio.timeout(pilot.real_s(options.ready_timeout_s)):
+        async with asyncio.timeout(max(pilot.real_s(options.ready_timeout_s), READY_MIN_REAL_S)):
             await _get_ready(spec, link, pilot, mission, options, view)
     except TimeoutError:
         raise MissionRefused(
