@@ -11,6 +11,7 @@ param1 the polygon's vertex count, consecutive items one polygon.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import IntEnum
@@ -42,7 +43,8 @@ class Fence:
     _polygons: list[list[LatLon]] = field(default_factory=list)
 
     def replace(self, items: Sequence[MissionItem]) -> None:
-        self.items = tuple(items)
+        # Kept as ArduPilot keeps them: the vertices only (autocontinue reads back 0).
+        self.items = tuple(dataclasses.replace(item, autocontinue=0) for item in items)
         self._polygons = inclusion_polygons(self.items)
         self.breached = False
 

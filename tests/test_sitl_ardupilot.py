@@ -173,21 +173,26 @@ def start_vehicle(
     started.append(subprocess.Popen(argv, cwd=work, stdout=log, stderr=subprocess.STDOUT))
 
 
-def read_back(instance: int, sysid: int, pad: tuple[float, float]) -> tuple[float, bool]:
-    """Distance of the vehicle from the pad's centre (m) and whether it is armed, read
-    on SITL's second port."""
+def read_back(
+    instance: int, sysid: int, pad: tuple[float, float]
+) -> tuple[float, bool, float | None]:
+    """Distance of the vehicle from the pad's centre (m), whether it is armed, and its
+    FENCE_ENABLE (the station's geofence switched on), read on SITL's second port."""
     link = mavutil.mavlink_connection(f"tcp:127.0.0.1:{5762 + 10 * instance}")
     try:
         deadline = time.monotonic() + 30
-        position = heartbeat = None
+        position = heartbeat = fence = None
         asked = 0.0
-        while (position is None or heartbeat is None) and time.monotonic() < deadline:
+        while (
+            position is None or heartbeat is None or fence is None
+        ) and time.monotonic() < deadline:
             if time.monotonic() - asked > 2.0:  # this port streams nothing unasked
                 asked = time.monotonic()
                 link.mav.command_long_send(
                     sysid, 1, mavutil.mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
                     mavutil.mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, 200_000, 0, 0, 0, 0, 0,
                 )  # fmt: skip
+                link.mav.param_request_read_send(sysid, 1, b"FENCE_ENABLE", -1)
             msg = link.recv_match(blocking=True, timeout=1)
             if msg is None or msg.get_srcSystem() != sysid:
                 continue
@@ -195,11 +200,13 @@ def read_back(instance: int, sysid: int, pad: tuple[float, float]) -> tuple[floa
                 position = (msg.lat / 1e7, msg.lon / 1e7)
             elif msg.get_type() == "HEARTBEAT" and msg.type != 6:
                 heartbeat = msg
+            elif msg.get_type() == "PARAM_VALUE" and msg.param_id.startswith("FENCE_ENABLE"):
+                fence = float(msg.param_value)
         assert position is not None and heartbeat is not None
         geo = GeoFrame(pad[0], pad[1], HOME[2], CELL_M)
         north, east = geo.geo_to_local(*position)
         armed = bool(heartbeat.base_mode & mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
-        return math.hypot(north, east), armed
+        return math.hypot(north, east), armed, fence
     finally:
         link.close()
 
@@ -224,6 +231,7 @@ def test_the_whole_mission_on_ardupilot_sitl(
         timeout=1700,
     )
     wall_s = time.monotonic() - started
+    assert (out / "report.json").exists(), (run.returncode, run.stderr[-3000:])
     got = json.loads((out / "report.json").read_text())
     print(f"{case}: exit {run.returncode}, wall {wall_s:.0f} s, mission {got.get('mission_s')} s")
     print(json.dumps(got["agents"]))
@@ -233,7 +241,8 @@ def test_the_whole_mission_on_ardupilot_sitl(
     for agent in got["agents"]:
         assert agent["charges"] >= 1, agent
     for instance in range(len(vehicles)):
-        off_m, armed = read_back(instance, instance + 1, HOME[:2])
-        print(f"vehicle {instance + 1}: {off_m:.2f} m from the pad, armed {armed}")
+        off_m, armed, fence = read_back(instance, instance + 1, HOME[:2])
+        print(f"vehicle {instance + 1}: {off_m:.2f} m from the pad, armed {armed}, fence {fence}")
         assert not armed
         assert off_m <= 1.0
+        assert fence == 1.0  # the station's geofence, switched on

@@ -36,3 +36,14 @@ def inclusion_fence(vertices: Sequence[tuple[float, float]]) -> list[MissionItem
         )
         for seq, (lat, lon) in enumerate(vertices)
     ]
+
+
+def same_fence(sent: Sequence[MissionItem], read_back: Sequence[MissionItem]) -> bool:
+    """Whether the vehicle holds the fence that was sent: the same vertices in the same
+    order. ArduPilot keeps no more of a fence item than that (it reads back with
+    autocontinue 0), so nothing else is compared."""
+
+    def vertices(items: Sequence[MissionItem]) -> list[tuple[int, int, int, int]]:
+        return [(i.command, round(i.param1), i.x, i.y) for i in items]
+
+    return vertices(sent) == vertices(read_back)

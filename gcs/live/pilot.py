@@ -33,7 +33,7 @@ from vehicles.driving import (
     read_driving_limits,
 )
 from vehicles.errors import CommandDenied, CommandError, LinkError, MissionTimeout
-from vehicles.fence import FENCE, inclusion_fence
+from vehicles.fence import FENCE, inclusion_fence, same_fence
 from vehicles.geo import GeoFrame
 from vehicles.link import VehicleLink
 from vehicles.mission_items import MissionItem, same_items
@@ -176,7 +176,7 @@ class Pilot:
         link = self.link
         items = inclusion_fence(vertices)
         await link.upload_mission(items, mission_type=FENCE)
-        if not same_items(items, await link.download_mission(FENCE)):
+        if not same_fence(items, await link.download_mission(FENCE)):
             raise LinkError("the vehicle holds another fence than the one sent")
         profile = link.profile
         if profile is None:
