@@ -50,6 +50,7 @@ from vehicles.link import VehicleLink
 from vehicles.mission_items import MissionItem
 from vehicles.mission_protocol import MissionSettings
 from vehicles.modes import VehicleKind
+from vehicles.parameters import ParameterRejected
 from vehicles.printable import printable
 from vehicles.telemetry import StatusText, TelemetryCache, Topic
 
@@ -561,3 +562,15 @@ def test_the_mission_fence_holds_every_cell_of_the_map(mission: Mission) -> None
             assert fence.contains(*centre) == (row in range(-1, rows + 1)), (row, col)
     far = geo.local_to_geo(*geo.cell_centre_local((rows + 2, cols + 2)))
     assert not fence.contains(*far)
+
+
+async def test_a_parameter_the_vehicle_does_not_take_is_an_error(
+    mission: Mission,
+) -> None:
+    """PARAM_SET is checked on its echo: the mock (as ArduPilot with a read-only value)
+    answers with the value it keeps, and the station says so instead of believing it."""
+    async with asyncio.timeout(BODY_S), linked(mission, UDP) as pair:
+        await pair.link.set_param("FENCE_ACTION", 1.0)
+        assert pair.truth.fence.action == 1.0
+        with pytest.raises(ParameterRejected, match="BATT_CAPACITY"):
+            await pair.link.set_param("BATT_CAPACITY", 1.0)
