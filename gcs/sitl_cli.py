@@ -26,7 +26,7 @@ from gcs.errors import EXIT_BAD_INPUT, EXIT_OK
 from gcs.mission import Charging, Mission, MissionError, Sensing, VehicleSpec, load_mission
 from sitl_mock.battery import BatterySettings
 from sitl_mock.connection import ConnectionStringError, mirror
-from sitl_mock.drive import DriveSettings, Steering
+from sitl_mock.drive import SKID_COAST_M_S2, DriveSettings, Steering
 from sitl_mock.endpoint import LinkSettings
 from sitl_mock.failsafe import FailsafeAction, GcsFailsafe
 from sitl_mock.fleet import MockFleet, MockVehicleConfig
@@ -54,7 +54,10 @@ def drive_settings(spec: VehicleSpec) -> DriveSettings | None:
     """How the mock drives a rover of the mission: as ArduPilot Rover with that steering."""
     if spec.type.value != "rover":
         return None
-    return DriveSettings(steering=Steering(spec.steering.value))
+    steering = Steering(spec.steering.value)
+    if steering is Steering.SKID:
+        return DriveSettings(steering=steering, coast_m_s2=SKID_COAST_M_S2)
+    return DriveSettings(steering=steering)
 
 
 def mock_fleet_configs(

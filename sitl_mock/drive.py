@@ -39,6 +39,10 @@ class Steering(StrEnum):
     CAR = "car"
 
 
+#: How fast SITL's skid-steered rover slows down in HOLD (m/s/s).
+SKID_COAST_M_S2 = 1.9
+
+
 @dataclass(frozen=True)
 class DriveSettings:
     """A rover's driving, with ArduPilot's parameter names where there is one."""
@@ -49,8 +53,9 @@ class DriveSettings:
     #: Speeding up and braking under control (ATC_ACCEL_MAX, ATC_DECEL_MAX).
     accel_m_s2: float = 1.0
     brake_m_s2: float = 1.0
-    #: Slowing down with the motors off (HOLD): rolling resistance only. SITL's rover set
-    #: to HOLD at 2.5 m/s rolled 4.7-5.1 m (about 0.65 m/s/s).
+    #: Slowing down with the motors off (HOLD): rolling resistance only. SITL's car set
+    #: to HOLD at 2.3-2.6 m/s rolled 4.7-5.1 m (about 0.65 m/s/s); its skid rover, at
+    #: 2.1 m/s, 1.15 m (``SKID_COAST_M_S2``).
     coast_m_s2: float = 0.65
     #: TURN_RADIUS: the tightest circle a car can drive.
     turn_radius_m: float = 0.9
