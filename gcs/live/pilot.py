@@ -669,12 +669,21 @@ class Pilot:
     # -- parking and the safe state --------------------------------------------------
 
     async def park(self, pad: Cell) -> None:
-        """Stop on ``pad`` and disarm (only a disarmed vehicle charges): a copter lands; a
-        rover holds, and once it has stopped rolling is brought back onto the pad if it
-        stopped off it, then disarmed."""
+        """Stop on ``pad`` and disarm (only a disarmed vehicle charges): a copter lands,
+        first brought over the pad's centre if it hovers off it (arrived at the pad cell's
+        edge); a rover holds, and once it has stopped rolling is brought back onto the pad
+        if it stopped off it, then disarmed."""
         self._route = None  # the flight home is over: the next one is uploaded afresh
         wait_s = self.settings.manoeuvre_timeout_s
         if self.flies:
+            pos = self.position
+            if (
+                pos is not None
+                and self.airborne()
+                and self.offset_m(pos, pad) > self.park_tolerance_m
+            ):
+                await self.underway()
+                await self.goto(pad, self.park_tolerance_m)
             await self._land(wait_s)
         else:
             tries = self.settings.park_attempts
