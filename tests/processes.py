@@ -18,6 +18,17 @@ def _as_in_a_terminal() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
+def gcs_run(*args: str, timeout_s: float = 240.0) -> subprocess.CompletedProcess[str]:
+    """``gcs ARGS`` run to its end: exit status and text output."""
+    return subprocess.run(
+        [sys.executable, "-m", "gcs.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout_s,
+        check=False,
+    )
+
+
 @contextmanager
 def gcs_process(*args: str) -> Iterator[subprocess.Popen[str]]:
     """``gcs ARGS`` with text pipes, killed at the end if it is still running."""

@@ -12,8 +12,6 @@ import json
 import math
 import os
 import struct
-import subprocess
-import sys
 import tempfile
 import unicodedata
 import zlib
@@ -37,6 +35,7 @@ from sitl_mock.drive import DriveSettings
 from sitl_mock.events import StatusText as MockStatusText
 from sitl_mock.fence import Fence as MockFence
 from sitl_mock.modes import Behaviour
+from tests.processes import gcs_run
 from tests.test_link_commands import FAST, connected
 from tests.test_link_fake import FakeOptions, FakeVehicle
 from tests.test_link_vs_mock import BODY_S, SPEEDUP, UDP, linked
@@ -57,17 +56,6 @@ from vehicles.telemetry import StatusText, TelemetryCache, Topic
 pytestmark = pytest.mark.timeout(120)
 
 
-def gcs(*argv: str, timeout_s: float = 100.0) -> subprocess.CompletedProcess[str]:
-    """The real CLI in a process of its own."""
-    return subprocess.run(
-        [sys.executable, "-c", "import sys; from gcs.cli import main; sys.exit(main())", *argv],
-        capture_output=True,
-        text=True,
-        timeout=timeout_s,
-        check=False,
-    )
-
-
 @pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full (Linux)")
 def test_a_full_log_disk_is_a_warning_and_the_mission_flies_on(tmp_path: Path) -> None:
     """The log file's every write fails with ENOSPC (it is /dev/full): the operator is told
@@ -77,7 +65,7 @@ def test_a_full_log_disk_is_a_warning_and_the_mission_flies_on(tmp_path: Path) -
     out = tmp_path / "out"
     out.mkdir()
     (out / "mission.mcap").symlink_to("/dev/full")
-    done = gcs("run", str(mission), "--sim", "--speedup", "30", "--quiet", "--out", str(out))
+    done = gcs_run("run", str(mission), "--sim", "--speedup", "30", "--quiet", "--out", str(out))
     assert "Traceback" not in done.stderr, done.stderr
     assert done.returncode == 0, done.stderr
     assert "the log stopped at mission time" in done.stderr
@@ -92,7 +80,7 @@ def test_a_plan_whose_log_cannot_be_written_is_still_a_plan(tmp_path: Path) -> N
     out = tmp_path / "out"
     out.mkdir()
     (out / "mission.mcap").symlink_to("/dev/full")
-    done = gcs("plan", str(mission), "--quiet", "--out", str(out))
+    done = gcs_run("plan", str(mission), "--quiet", "--out", str(out))
     assert "Traceback" not in done.stderr, done.stderr
     assert done.returncode == 0, done.stderr
     assert "warning: the log stopped at" in done.stderr
@@ -219,7 +207,7 @@ def test_a_hostile_waypoint_file_is_refused_before_any_frame(tmp_path: Path, ite
     one frame sent (the endpoint is a port nobody listens on: a frame would not fail)."""
     path = tmp_path / "m.waypoints"
     path.write_text(f"{WPL_HEADER}\n{HOME}\n{item}\n")
-    done = gcs("mission", "upload", "udpout:127.0.0.1:9", str(path), "--timeout", "1")
+    done = gcs_run("mission", "upload", "udpout:127.0.0.1:9", str(path), "--timeout", "1")
     assert done.returncode == 2, done.stderr
     assert "Traceback" not in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1, done.stderr
@@ -323,7 +311,7 @@ def test_gcs_report_on_a_log_cut_during_readiness_says_interrupted(
     data, truth = full_log
     path = tmp_path / "cut.mcap"
     path.write_bytes(data[:1024])
-    done = gcs("report", str(path), "--out", str(tmp_path / "report"))
+    done = gcs_run("report", str(path), "--out", str(tmp_path / "report"))
     assert "Traceback" not in done.stderr
     if done.returncode == 2:  # not even the run's description in the first kilobyte
         assert len(done.stderr.strip().splitlines()) == 1
@@ -434,7 +422,7 @@ def test_a_png_map_larger_than_the_limit_is_refused_unread(tmp_path: Path, side:
     """A few kilobytes claiming hundreds of millions of pixels: refused from the header,
     one line, exit 2 (it used to take 6-7 GB, or raise a decompression-bomb traceback)."""
     (tmp_path / "map.png").write_bytes(_png_header_only(side, side))
-    done = gcs("plan", str(_mission_with_map(tmp_path, "map.png")), "--quiet")
+    done = gcs_run("plan", str(_mission_with_map(tmp_path, "map.png")), "--quiet")
     assert done.returncode == 2, done.stderr
     assert "Traceback" not in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1
@@ -444,7 +432,7 @@ def test_a_png_map_larger_than_the_limit_is_refused_unread(tmp_path: Path, side:
 def test_an_ascii_map_larger_than_the_limit_is_refused_unread(tmp_path: Path) -> None:
     with (tmp_path / "map.txt").open("wb") as sparse:  # 400 MB that take no disk
         sparse.truncate(20_000 * 20_001)
-    done = gcs("plan", str(_mission_with_map(tmp_path, "map.txt")), "--quiet")
+    done = gcs_run("plan", str(_mission_with_map(tmp_path, "map.txt")), "--quiet")
     assert done.returncode == 2, done.stderr
     assert "Traceback" not in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1
@@ -458,7 +446,7 @@ def test_a_mission_name_that_is_not_printable_is_refused(tmp_path: Path, name: s
     path.write_text(
         f"name: {escaped}\nmap: map.txt\nfleet:\n  vehicles:\n    - {{sysid: 1, type: rover}}\n"
     )
-    done = gcs("plan", str(path), "--quiet")
+    done = gcs_run("plan", str(path), "--quiet")
     assert done.returncode == 2, done.stderr
     assert "Traceback" not in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1

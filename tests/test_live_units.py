@@ -60,16 +60,18 @@ MAP = grid(
 ORTHOGONAL = (Direction.N, Direction.E, Direction.S, Direction.W)
 
 
-def states_from(grid_map, cell, heading, offset=(0.0, 0.0), sectors=72, cm=True):  # type: ignore[no-untyped-def]
+def states_from(grid_map, cell, heading, offset=(0.0, 0.0), sectors=72, cm=True, believed=None):  # type: ignore[no-untyped-def]
     """What the station makes of the mock's rays from ``offset`` (cells east, north) off
-    the centre of ``cell``, ranges in whole centimetres as MAVLink carries them."""
+    the centre of ``cell``, ranges in whole centimetres as MAVLink carries them, when it
+    believes the vehicle stood at ``believed`` (``offset`` unless given)."""
     north = -(cell[0] + 0.5) + offset[1]
     east = cell[1] + 0.5 + offset[0]
     ranges = sector_distances_m(grid_map, 1.0, north, east, heading, sectors, 10.0)
     if cm:
         ranges = [round(r, 2) for r in ranges]
     obs = ObstacleDistances(tuple(ranges), 360.0 / sectors, 0.0, 0.1, 10.0, 12, 0)
-    return neighbour_states(rays_from_obstacles(heading, obs, offset), 1.0)
+    origin = offset if believed is None else believed
+    return neighbour_states(rays_from_obstacles(heading, obs, origin), 1.0)
 
 
 @pytest.mark.parametrize("heading", [0.0, 90.0, 180.0, 270.0, 45.0])
@@ -163,11 +165,8 @@ def test_a_place_known_to_a_few_centimetres_calls_no_wall_free(
     cell = (3, 3)
     if not g.is_free(cell):
         return
-    north_m, east_m = -(cell[0] + 0.5) + north, cell[1] + 0.5 + east
-    ranges = [round(r, 2) for r in sector_distances_m(g, 1.0, north_m, east_m, heading, 72, 10.0)]
-    obs = ObstacleDistances(tuple(ranges), 5.0, 0.0, 0.1, 10.0, 12, 0)
     believed = (east + error_east, north + error_north)
-    states = neighbour_states(rays_from_obstacles(heading, obs, believed), 1.0)
+    states = states_from(g, cell, heading, (east, north), believed=believed)
     truth = readings_from_map(g, cell)
     for d, s in states.items():
         assert s in (truth[d], UNKNOWN), (rows, heading, east, north, d)

@@ -27,6 +27,7 @@ from planner.settings import AgentSpec, PlannerSettings
 from sitl_mock.gridmap import GridMap
 from sitl_mock.lockstep import Body, LockstepWorld
 from sitl_mock.mapgen import caves, open_field, rooms
+from tests.processes import gcs_run
 from tests.test_live_mission import write_mission
 
 AGENTS = (1, 2, 3)
@@ -100,29 +101,19 @@ def test_restore_refuses_another_shape() -> None:
 # -- the CLI ---------------------------------------------------------------------------
 
 
-def _gcs(*args: str, timeout_s: float = 240.0) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "gcs.cli", *args],
-        capture_output=True,
-        text=True,
-        timeout=timeout_s,
-        check=False,
-    )
-
-
 def test_resume_refuses_a_log_of_another_mission(tmp_path: Path, small_log: Path) -> None:
     other = load_mission(Path("missions/bob30.yaml"))
     with pytest.raises(ResumeError) as info:
         load_resume_point(small_log, other)
     assert str(info.value).startswith(f"--resume: {small_log} records mission 'demo'")
-    done = _gcs("run", "missions/bob30.yaml", "--sim", "--resume", str(small_log), "--quiet")
+    done = gcs_run("run", "missions/bob30.yaml", "--sim", "--resume", str(small_log), "--quiet")
     assert done.returncode == 2
     assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
     assert "records mission 'demo'" in done.stderr
 
 
 def test_resume_refuses_to_overwrite_its_log(small_log: Path) -> None:
-    done = _gcs(
+    done = gcs_run(
         "run", "missions/demo.yaml", "--sim", "--resume", str(small_log),
         "--out", str(small_log.parent), "--quiet",
     )  # fmt: skip
@@ -131,7 +122,7 @@ def test_resume_refuses_to_overwrite_its_log(small_log: Path) -> None:
 
 
 def test_resume_refuses_a_missing_log(tmp_path: Path) -> None:
-    done = _gcs("run", "missions/demo.yaml", "--sim", "--resume", str(tmp_path / "x.mcap"))
+    done = gcs_run("run", "missions/demo.yaml", "--sim", "--resume", str(tmp_path / "x.mcap"))
     assert done.returncode == 2
     assert done.stderr.strip() == f"gcs run: --resume: {tmp_path / 'x.mcap'}: no such file"
 
@@ -140,7 +131,7 @@ def test_resume_refuses_a_missing_log(tmp_path: Path) -> None:
 def small_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The demo mission stopped by its time limit: everyone sent home, the log closed."""
     out = tmp_path_factory.mktemp("first")
-    done = _gcs(
+    done = gcs_run(
         "run", "missions/demo.yaml", "--sim", "--agents", "3", "--speedup", "40",
         "--time-limit", "40", "--quiet", "--out", str(out),
     )  # fmt: skip
@@ -151,7 +142,7 @@ def small_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_an_aborted_mission_resumed_completes(tmp_path: Path, small_log: Path) -> None:
     first = json.loads((small_log.parent / "report.json").read_text())
     assert not first["complete"] and first["covered_cells"] > 0
-    done = _gcs(
+    done = gcs_run(
         "run", "missions/demo.yaml", "--sim", "--agents", "3", "--speedup", "40",
         "--resume", str(small_log), "--quiet", "--out", str(tmp_path),
     )  # fmt: skip
