@@ -16,17 +16,14 @@ from sitl_mock.vehicle import Vehicle
 
 Message = mavlink.MAVLink_message
 _REAL32 = mavlink.MAV_PARAM_TYPE_REAL32
+#: The parameters a ground station may set: the geofence's, by ``Fence`` field.
+_FENCE_FIELDS = {"FENCE_ENABLE": "enable", "FENCE_TYPE": "kind", "FENCE_ACTION": "action"}
 
 
 def parameter_values(vehicle: Vehicle) -> dict[str, float]:
     """Name -> value, in a fixed order (the index of PARAM_VALUE)."""
-    fence = vehicle.fence
-    values = {
-        "BATT_CAPACITY": vehicle.battery.settings.capacity_mah,
-        "FENCE_ENABLE": fence.enable,
-        "FENCE_TYPE": fence.kind,
-        "FENCE_ACTION": fence.action,
-    }
+    values = {"BATT_CAPACITY": vehicle.battery.settings.capacity_mah}
+    values |= {name: getattr(vehicle.fence, field) for name, field in _FENCE_FIELDS.items()}
     drive = vehicle.settings.drive
     if vehicle.drive is not None and drive is not None:
         values |= {
@@ -66,29 +63,9 @@ def answer(codec: mavlink.MAVLink, vehicle: Vehicle, msg: Message) -> list[Messa
         return [] if reply is None else [reply]
     if kind == "PARAM_SET":
         name = _name(msg.param_id)
-        setter = _FENCE_SETTERS.get(name)
-        if setter is not None:
-            setter(vehicle, float(msg.param_value))
+        field = _FENCE_FIELDS.get(name)
+        if field is not None:
+            setattr(vehicle.fence, field, float(msg.param_value))
         reply = param_value(codec, vehicle, name)
         return [] if reply is None else [reply]
     return []
-
-
-def _set_enable(vehicle: Vehicle, value: float) -> None:
-    vehicle.fence.enable = value
-
-
-def _set_type(vehicle: Vehicle, value: float) -> None:
-    vehicle.fence.kind = value
-
-
-def _set_action(vehicle: Vehicle, value: float) -> None:
-    vehicle.fence.action = value
-
-
-#: The parameters a ground station may set, and how.
-_FENCE_SETTERS = {
-    "FENCE_ENABLE": _set_enable,
-    "FENCE_TYPE": _set_type,
-    "FENCE_ACTION": _set_action,
-}
