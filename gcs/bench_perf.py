@@ -12,7 +12,9 @@
    the planner is compiled (so no case counts compiling), and is stopped after
    ``--case-limit`` seconds (then reported with the coverage it reached).
 2. Live ground station: one ``gcs run --sim`` in this process (the mock fleet in the
-   same event loop) with 1, 16 and 64 vehicles on an open map sized to the fleet:
+   same event loop) with 1, 16 and 64 vehicles on an open map sized to the fleet,
+   each vehicle on a UDP port of its own, or (``--links shared``, ``both``) the whole
+   fleet on one port as behind one radio:
    decision latency (arrival and sensing in, the next guided target out), event-loop
    lateness, messages read per second, CPU per vehicle. A run falls behind when its
    event loop is more than ``LOOP_BEHIND_MS`` late at the 99th percentile.
@@ -115,6 +117,13 @@ def register_perf(which: argparse._SubParsersAction) -> None:  # type: ignore[ty
         metavar="KEY=VALUE",
         help="a planner setting for the planner cases, e.g. far_transit_recheck=1 (repeat for "
         "several; default: the planner's defaults)",
+    )
+    p.add_argument(
+        "--links",
+        choices=[*LINKS, "both"],
+        default="own",
+        help="live runs with each vehicle on a UDP port of its own, the whole fleet on one "
+        "port (as behind one radio), or both side by side (default own)",
     )
     p.add_argument("--skip-planner", action="store_true", help="only the live runs")
     p.add_argument("--skip-live", action="store_true", help="only the planner cases")
@@ -274,9 +283,15 @@ def live_map(vehicles: int) -> GridMap:
     return mapgen.open_field(side, side, MAP_SEED)
 
 
-def write_live_mission(folder: Path, vehicles: int) -> Path:
+#: How the live runs reach their vehicles: a UDP port each, or one for the fleet.
+LINKS = ("own", "shared")
+
+
+def write_live_mission(folder: Path, vehicles: int, links: str = "own") -> Path:
     grid = live_map(vehicles)
-    ports = free_loopback_udp_ports(vehicles)
+    ports = free_loopback_udp_ports(vehicles if links == "own" else 1) * (
+        1 if links == "own" else vehicles
+    )
     mission = case_mission(
         grid, vehicles, f"live{vehicles}", [f"udpin:127.0.0.1:{p}" for p in ports]
     )
@@ -294,12 +309,12 @@ def write_live_mission(folder: Path, vehicles: int) -> Path:
     return path
 
 
-def run_live_case(vehicles: int, speedup: float) -> dict[str, Any]:
+def run_live_case(vehicles: int, speedup: float, links: str = "own") -> dict[str, Any]:
     from gcs.cli import main  # the real CLI; imported here, as gcs.cli registers this bench
 
     with tempfile.TemporaryDirectory(prefix="gcs-bench-perf-") as tmp:
         folder = Path(tmp)
-        mission = write_live_mission(folder, vehicles)
+        mission = write_live_mission(folder, vehicles, links)
         out = folder / "out"
         t0 = time.perf_counter()
         code = main(
@@ -318,10 +333,15 @@ def run_live_case(vehicles: int, speedup: float) -> dict[str, Any]:
         )
         wall = time.perf_counter() - t0
         if not (out / "report.json").exists():
-            return {"vehicles": vehicles, "error": f"gcs run exited {code} without a report"}
+            return {
+                "vehicles": vehicles,
+                "links": links,
+                "error": f"gcs run exited {code} without a report",
+            }
         r = json.loads((out / "report.json").read_text())
     return {
         "vehicles": vehicles,
+        "links": links,
         "free_cells": r["free_cells"],
         "exit": code,
         "wall_s": round(wall, 1),
@@ -342,6 +362,7 @@ def live_table(rows: list[dict[str, Any]], speedup: float) -> Table:
     table = Table(title=f"live ground station, gcs run --sim at speed-up {speedup:g}")
     for name in (
         "vehicles",
+        "links",
         "free cells",
         "coverage %",
         "lost",
@@ -357,10 +378,11 @@ def live_table(rows: list[dict[str, Any]], speedup: float) -> Table:
         table.add_column(name, justify="right")
     for r in rows:
         if "error" in r:
-            table.add_row(str(r["vehicles"]), r["error"], *[""] * 10)
+            table.add_row(str(r["vehicles"]), r["links"], r["error"], *[""] * 10)
             continue
         table.add_row(
             str(r["vehicles"]),
+            r["links"],
             str(r["free_cells"]),
             f"{r['coverage_pct']:.1f}",
             str(r["lost"]),
@@ -415,8 +437,8 @@ def goals(planner_rows: list[dict[str, Any]], live_rows: list[dict[str, Any]]) -
         if r["vehicles"] != GOAL_VEHICLES:
             continue
         what = (
-            f"live, {GOAL_VEHICLES} vehicles: complete, none lost, decision latency p99 "
-            f"under {GOAL_P99_MS:g} ms"
+            f"live, {GOAL_VEHICLES} vehicles ({r['links']} link): complete, none lost, "
+            f"decision latency p99 under {GOAL_P99_MS:g} ms"
         )
         found.append(
             _judged(
@@ -500,9 +522,13 @@ def run_perf(args: argparse.Namespace) -> int:
         figures["planner"] = planner_rows
         console.print(planner_table(planner_rows, settings))
     if not args.skip_live:
+        links = LINKS if args.links == "both" else (args.links,)
         for n in vehicles:
-            progress.print(f"live: {n} vehicles at speed-up {args.live_speedup:g} ...")
-            live_rows.append(run_live_case(n, args.live_speedup))
+            for link in links:
+                progress.print(
+                    f"live: {n} vehicles at speed-up {args.live_speedup:g}, {link} link ..."
+                )
+                live_rows.append(run_live_case(n, args.live_speedup, link))
         figures["live"] = {"speedup": args.live_speedup, "runs": live_rows}
         console.print(live_table(live_rows, args.live_speedup))
     found = goals(planner_rows, live_rows)

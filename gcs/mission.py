@@ -7,10 +7,13 @@ and the rest of the ground station can trust a :class:`Mission`.
 A mission that gives only ``map`` works: every other key has a default (see
 the module constants and the dataclass defaults below).
 
-Connections: a vehicle without an explicit ``connection`` listens on its own
-loopback UDP port, ``udpin:127.0.0.1:<14550 + 10 * (sysid - 1)>`` (14550 for
-sysid 1, 14560 for sysid 2, ...), the ArduPilot SITL habit of ten ports per
-instance. The mock fleet sends to the same ports, so ``--sim`` needs no setup.
+Connections: a vehicle without an explicit ``connection`` (nor one in
+``fleet.defaults``) listens on its own loopback UDP port,
+``udpin:127.0.0.1:<14550 + 10 * (sysid - 1)>`` (14550 for sysid 1, 14560 for
+sysid 2, ...), the ArduPilot SITL habit of ten ports per instance. The mock
+fleet sends to the same ports, so ``--sim`` needs no setup. Several vehicles
+may name the same connection (one radio or router for the fleet): the station
+opens it once and tells the vehicles apart by system id.
 """
 
 from __future__ import annotations
@@ -109,6 +112,9 @@ class VehicleDefaults:
     steering: Steering = Steering.SKID
     charging: Charging = Charging.AUTO
     fence: bool = True
+    #: One connection for every vehicle that names none (a radio or router that carries
+    #: the whole fleet); None: each its own UDP port (``default_connection``).
+    connection: str | None = None
 
 
 @dataclass(frozen=True)
@@ -341,8 +347,19 @@ class _Loader:
     def defaults(self, value: Any) -> VehicleDefaults:
         if value is None:
             return VehicleDefaults()
-        given = self.section(value, "fleet.defaults", _DEFAULT_KEYS)
-        return VehicleDefaults(**self.vehicle_settings(given, "fleet.defaults", VehicleDefaults()))
+        given = self.section(value, "fleet.defaults", (*_DEFAULT_KEYS, "connection"))
+        connection = given.get("connection")
+        if connection is not None:
+            connection = self.connection(connection, "fleet.defaults.connection")
+        return VehicleDefaults(
+            **self.vehicle_settings(given, "fleet.defaults", VehicleDefaults()),
+            connection=connection,
+        )
+
+    def connection(self, value: Any, where: str) -> str:
+        if not isinstance(value, str) or not value.strip():
+            raise self.fail(where, f"must be a non-empty string, got {_show(value)}")
+        return value.strip()
 
     def vehicle_settings(
         self, data: Mapping[Any, Any], where: str, base: VehicleDefaults
@@ -409,21 +426,13 @@ class _Loader:
             sysid_owner[sysid] = f"fleet.vehicles[{i}]"
         free_ids = (n for n in range(1, MAX_SYSID + 1) if n not in sysid_owner)
         specs: list[VehicleSpec] = []
-        connection_owner: dict[str, str] = {}
         for i, item in enumerate(items):
             where = f"fleet.vehicles[{i}]"
             sysid = int(item["sysid"]) if "sysid" in item else next(free_ids)
-            connection = item.get("connection", default_connection(sysid))
-            if not isinstance(connection, str) or not connection.strip():
-                raise self.fail(
-                    f"{where}.connection", f"must be a non-empty string, got {_show(connection)}"
-                )
-            if connection in connection_owner:
-                raise self.fail(
-                    f"{where}.connection",
-                    f"{connection!r} is already used by {connection_owner[connection]}",
-                )
-            connection_owner[connection] = where
+            connection = self.connection(
+                item.get("connection", defaults.connection or default_connection(sysid)),
+                f"{where}.connection",
+            )
             specs.append(
                 VehicleSpec(
                     sysid=sysid,
@@ -551,10 +560,11 @@ def _generate(
     for sysid in range(1, MAX_SYSID + 1):
         if len(made) == count:
             break
-        connection = default_connection(sysid)
-        if sysid in used_ids or connection in used_connections:
+        connection = defaults.connection or default_connection(sysid)
+        if sysid in used_ids or (defaults.connection is None and connection in used_connections):
             continue
-        made.append(VehicleSpec(sysid=sysid, connection=connection, **dataclasses.asdict(defaults)))
+        settings = {k: v for k, v in dataclasses.asdict(defaults).items() if k != "connection"}
+        made.append(VehicleSpec(sysid=sysid, connection=connection, **settings))
     return tuple(made)
 
 

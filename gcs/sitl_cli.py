@@ -25,7 +25,7 @@ from collections.abc import Sequence
 from gcs.errors import EXIT_BAD_INPUT, EXIT_OK
 from gcs.mission import Charging, Mission, MissionError, Sensing, VehicleSpec, load_mission
 from sitl_mock.battery import BatterySettings
-from sitl_mock.connection import ConnectionStringError, mirror
+from sitl_mock.connection import ConnectionStringError, mirror, parse_mock_side
 from sitl_mock.drive import SKID_COAST_M_S2, DriveSettings, Steering
 from sitl_mock.endpoint import LinkSettings
 from sitl_mock.failsafe import FailsafeAction, GcsFailsafe
@@ -67,12 +67,16 @@ def mock_fleet_configs(
     keys: KeyFile | None = None,
     *,
     gcs_failsafe: GcsFailsafe = FLEET_GCS_FAILSAFE,
+    one_link: str | None = None,
 ) -> list[MockVehicleConfig]:
-    """One mock vehicle per vehicle of the mission, on the mirror side of its connection;
-    a vehicle with a key in ``keys`` signs what it sends and refuses unsigned commands."""
+    """One mock vehicle per vehicle of the mission, on the mirror side of its connection
+    (or all on ``one_link``, the mock's side); a vehicle with a key in ``keys`` signs
+    what it sends and refuses unsigned commands."""
     configs = []
     for i, spec in enumerate(mission.fleet):
-        if tcp_base_port is None:
+        if one_link is not None:
+            connection = one_link
+        elif tcp_base_port is None:
             connection = mirror(spec.connection)
         else:
             connection = f"tcpin:127.0.0.1:{tcp_base_port + TCP_PORT_STEP * i}"
@@ -119,6 +123,14 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         metavar="P",
         help="serve TCP like ArduPilot SITL: vehicle i on port P + 10 i",
+    )
+    parser.add_argument(
+        "--one-link",
+        metavar="CONNECTION",
+        help="serve the whole fleet through this one connection, as behind one radio or "
+        "router (the mock's side: udpout:HOST:PORT sends to a ground station listening "
+        "there, udpin:/tcpin: listen, serial:DEVICE:BAUD or /dev/ttyX,BAUD is a serial "
+        "device); each vehicle answers only what is addressed to it",
     )
     parser.add_argument(
         "--startup-delay",
@@ -169,6 +181,10 @@ def _prepare(args: argparse.Namespace) -> tuple[Mission, list[MockVehicleConfig]
     mission = load_mission(args.mission)
     if args.agents is not None:
         mission = mission.with_agents(args.agents)
+    if args.tcp_base_port is not None and args.one_link is not None:
+        raise _BadInput("--tcp-base-port and --one-link exclude each other")
+    if args.one_link is not None:
+        parse_mock_side(args.one_link)  # a clear error now, not when the fleet starts
     if args.tcp_base_port is not None:
         last = args.tcp_base_port + TCP_PORT_STEP * (len(mission.fleet) - 1)
         if not args.tcp_base_port > 0 or last > 65535:
@@ -181,7 +197,12 @@ def _prepare(args: argparse.Namespace) -> tuple[Mission, list[MockVehicleConfig]
         if warning is not None:
             print(f"{PROG}: warning: {warning}", file=sys.stderr)
     return mission, mock_fleet_configs(
-        mission, args.tcp_base_port, args.startup_delay, keys, gcs_failsafe=failsafe
+        mission,
+        args.tcp_base_port,
+        args.startup_delay,
+        keys,
+        gcs_failsafe=failsafe,
+        one_link=args.one_link,
     )
 
 
@@ -203,8 +224,10 @@ async def _serve(
         for config in configs:
             kind = config.vehicle.kind.value
             signed = " (signed)" if config.link.signing_key is not None else ""
+            shared = " (shared)" if fleet.shares_link(config.sysid) else ""
             print(
-                f"vehicle {config.sysid} {kind}: {fleet.gcs_connection(config.sysid)}{signed}",
+                f"vehicle {config.sysid} {kind}: {fleet.gcs_connection(config.sysid)}"
+                f"{shared}{signed}",
                 flush=True,
             )
         await stop.wait()

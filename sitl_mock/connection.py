@@ -12,7 +12,10 @@ The mock's own sides:
 - ``udpin:HOST:P`` listens on P and answers the last sender (silent until
   someone talks to it);
 - ``tcpin:HOST:P`` is a TCP server, like ArduPilot SITL, serving several
-  clients at once.
+  clients at once;
+- ``serial:DEVICE:BAUD`` (or ``/dev/ttyX,BAUD``) is a serial device, the
+  vehicle's end of a telemetry radio (a serial link cannot be mirrored: its
+  far end is another device).
 
 Only loopback addresses are accepted unless explicitly allowed: the mock is
 for tests and simulation on one machine.
@@ -24,6 +27,9 @@ import ipaddress
 from dataclasses import dataclass
 from enum import StrEnum
 
+from vehicles.endpoints import parse_serial
+from vehicles.errors import EndpointError
+
 
 class ConnectionStringError(ValueError):
     """A connection string the mock cannot use."""
@@ -34,6 +40,7 @@ class LinkKind(StrEnum):
     UDPIN = "udpin"
     TCPIN = "tcpin"
     TCP = "tcp"
+    SERIAL = "serial"
 
 
 #: Ground station side -> mock side.
@@ -48,11 +55,17 @@ _MIRROR = {
 
 @dataclass(frozen=True)
 class Endpoint:
+    """A network address, or for ``SERIAL`` a device (``host``) at ``baud``."""
+
     kind: LinkKind
     host: str
-    port: int
+    port: int = 0
+    baud: int = 0
+    flow_control: bool = False
 
     def __str__(self) -> str:
+        if self.kind is LinkKind.SERIAL:
+            return f"serial:{self.host}:{self.baud}"
         return f"{self.kind.value}:{self.host}:{self.port}"
 
 
@@ -88,7 +101,10 @@ def is_loopback(host: str) -> bool:
 
 
 def parse_mock_side(text: str, allow_non_loopback: bool = False) -> Endpoint:
-    """Parse the mock's own connection string (udpout, udpin or tcpin)."""
+    """Parse the mock's own connection string (udpout, udpin, tcpin or serial)."""
+    serial = _serial(text)
+    if serial is not None:
+        return serial
     kind_text, host, port = _split(text)
     try:
         kind = LinkKind(kind_text)
@@ -108,8 +124,25 @@ def parse_mock_side(text: str, allow_non_loopback: bool = False) -> Endpoint:
     return Endpoint(kind, host, port)
 
 
+def _serial(text: str) -> Endpoint | None:
+    try:
+        device = parse_serial(text)
+    except EndpointError as exc:
+        raise ConnectionStringError(str(exc)) from None
+    if device is None:
+        return None
+    return Endpoint(
+        LinkKind.SERIAL, device.host, baud=device.baud, flow_control=device.flow_control
+    )
+
+
 def mirror(gcs_connection: str) -> str:
     """The mock's side of a connection written from the ground station's side."""
+    if _serial(gcs_connection) is not None:
+        raise ConnectionStringError(
+            f"connection {gcs_connection!r}: a serial link's far end is another device; run "
+            "the mock on it (sitl-mock MISSION --one-link serial:DEVICE:BAUD)"
+        )
     kind_text, host, port = _split(gcs_connection)
     kind = _MIRROR.get(kind_text)
     if kind is None:
@@ -119,14 +152,3 @@ def mirror(gcs_connection: str) -> str:
     if host in ("", "0.0.0.0", "::"):
         host = "127.0.0.1"
     return f"{kind.value}:{host}:{port}"
-
-
-def gcs_side(mock_connection: str) -> str:
-    """What a ground station should use to reach a mock with this connection (pymavlink form)."""
-    endpoint = parse_mock_side(mock_connection, allow_non_loopback=True)
-    kind = {
-        LinkKind.UDPOUT: "udpin",
-        LinkKind.UDPIN: "udpout",
-        LinkKind.TCPIN: "tcp",
-    }[endpoint.kind]
-    return f"{kind}:{endpoint.host}:{endpoint.port}"

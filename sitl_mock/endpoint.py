@@ -17,6 +17,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import random
+from collections import Counter
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -86,7 +87,11 @@ class VehicleEndpoint:
         clock: Clock,
         faults: VehicleFaults | None = None,
         seed: int = 0,
+        *,
+        own_transport: bool = True,
     ) -> None:
+        """``own_transport`` false: the vehicle shares a transport with others (one
+        radio for the fleet); whoever made it feeds this endpoint as its listener."""
         self.vehicle = vehicle
         self.link = link
         self.clock = clock
@@ -94,7 +99,9 @@ class VehicleEndpoint:
         self.endpoint: Endpoint = parse_mock_side(link.connection, link.allow_non_loopback)
         self._encoder = mavlink.MAVLink(None, vehicle.id, link.component_id)
         self._channels: dict[int, _Channel] = {}
-        self._transport: Transport = make_transport(self.endpoint, self)
+        self._transport: Transport | None = (
+            make_transport(self.endpoint, self) if own_transport else None
+        )
         self._streams: dict[int, asyncio.Task[None]] = {}
         self._intervals_s: dict[int, float] = dict(telemetry.DEFAULT_INTERVALS_S)
         for message_id, interval in link.stream_intervals_s.items():
@@ -136,6 +143,8 @@ class VehicleEndpoint:
         self.unknown_messages = 0
         #: Good frames addressed to another system (``target_system``), ignored.
         self.foreign_frames = 0
+        #: Every good frame heard, by (message type, target system; 0 when it has none).
+        self.heard: Counter[tuple[str, int]] = Counter()
         #: Signing stream timestamps, one table for every peer (no replay on another).
         self._signing_streams: StreamTimestamps = {}
         self._started = False
@@ -145,10 +154,13 @@ class VehicleEndpoint:
 
     @property
     def local_port(self) -> int:
+        if self._transport is None:
+            raise RuntimeError("a vehicle on a shared transport has no port of its own")
         return self._transport.local_port
 
     async def start(self) -> None:
-        await self._transport.start()
+        if self._transport is not None:
+            await self._transport.start()
         self._started = True
         for message_id in list(self._intervals_s):
             self._restart_stream(message_id)
@@ -156,7 +168,8 @@ class VehicleEndpoint:
     async def close(self) -> None:
         self._stop_streams()
         self.mission.close()
-        await self._transport.close()
+        if self._transport is not None:
+            await self._transport.close()
         self._channels.clear()
 
     def _stop_streams(self) -> None:
@@ -219,6 +232,7 @@ class VehicleEndpoint:
         if isinstance(msg, mavlink.MAVLink_unknown):
             self.unknown_messages += 1
             return False
+        self.heard[msg.get_type(), getattr(msg, "target_system", 0)] += 1
         if getattr(msg, "target_system", 0) not in (0, self.vehicle.id):
             self.foreign_frames += 1
             return False

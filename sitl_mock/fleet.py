@@ -30,6 +30,7 @@ from sitl_mock.connection import LinkKind
 from sitl_mock.endpoint import LinkSettings, VehicleEndpoint
 from sitl_mock.faults import VehicleFaults
 from sitl_mock.gridmap import GridMap
+from sitl_mock.transport import Fanout, Transport, make_transport
 from sitl_mock.vehicle import Vehicle, VehicleSettings
 from sitl_mock.world import World
 from vehicles.clock import Clock, ScaledClock
@@ -80,6 +81,10 @@ class MockFleet:
         self.step_s = step_s
         self.vehicles: dict[int, Vehicle] = {}
         self.endpoints: dict[int, VehicleEndpoint] = {}
+        # Vehicles that name the same connection share one transport, as behind a radio.
+        sharing: dict[str, list[int]] = {}
+        for sysid, config in self.configs.items():
+            sharing.setdefault(config.link.connection, []).append(sysid)
         for sysid, config in self.configs.items():
             vehicle = Vehicle(
                 sysid,
@@ -90,10 +95,22 @@ class MockFleet:
             )
             self.vehicles[sysid] = vehicle
             self.endpoints[sysid] = VehicleEndpoint(
-                vehicle, config.link, self.clock, config.faults, seed
+                vehicle,
+                config.link,
+                self.clock,
+                config.faults,
+                seed,
+                own_transport=len(sharing[config.link.connection]) == 1,
             )
+        #: One transport per connection several vehicles share, by system id.
+        self._shared: dict[int, Transport] = {}
+        for ids in sharing.values():
+            if len(ids) > 1:
+                first = self.endpoints[ids[0]]
+                transport = make_transport(first.endpoint, Fanout([self.endpoints[i] for i in ids]))
+                self._shared.update(dict.fromkeys(ids, transport))
         self._physics: asyncio.Task[None] | None = None
-        self._started: list[VehicleEndpoint] = []
+        self._started: list[VehicleEndpoint | Transport] = []
 
     # ------------------------------------------------------------------ lifecycle
 
@@ -114,6 +131,9 @@ class MockFleet:
             for endpoint in self.endpoints.values():
                 await endpoint.start()
                 self._started.append(endpoint)
+            for transport in dict.fromkeys(self._shared.values()):
+                await transport.start()
+                self._started.append(transport)
         except BaseException:
             await self.stop()
             raise
@@ -129,8 +149,8 @@ class MockFleet:
                 await self._physics
             self._physics = None
         started, self._started = self._started, []
-        for endpoint in started:
-            await endpoint.close()
+        for opened in reversed(started):
+            await opened.close()
 
     # ------------------------------------------------------------------ physics
 
@@ -165,11 +185,21 @@ class MockFleet:
         """The mock's own side of the vehicle's link, with the port actually bound."""
         endpoint = self.endpoints[sysid]
         e = endpoint.endpoint
-        port = e.port if e.port or e.kind is LinkKind.UDPOUT else endpoint.local_port
+        if e.kind is LinkKind.SERIAL or e.port or e.kind is LinkKind.UDPOUT:
+            return str(e)
+        shared = self._shared.get(sysid)
+        port = endpoint.local_port if shared is None else shared.local_port
         return f"{e.kind.value}:{e.host}:{port}"
 
     def gcs_connection(self, sysid: int) -> str:
         """What a ground station should use to reach this vehicle (pymavlink spelling)."""
+        e = self.endpoints[sysid].endpoint
+        if e.kind is LinkKind.SERIAL:
+            return "serial:<the other end of the serial link>"
         kind, host, port = self.connection(sysid).split(":")
         gcs_kind = {"udpout": "udpin", "udpin": "udpout", "tcpin": "tcp"}[kind]
         return f"{gcs_kind}:{host}:{port}"
+
+    def shares_link(self, sysid: int) -> bool:
+        """Whether the vehicle shares its connection with others of the fleet."""
+        return sysid in self._shared

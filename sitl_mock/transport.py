@@ -1,17 +1,21 @@
-"""Byte transports of the mock vehicles: UDP out, UDP in, TCP server, on asyncio.
+"""Byte transports of the mock vehicles: UDP out, UDP in, TCP server, serial, on asyncio.
 
-A transport turns a socket into ``Peer`` objects (a far end one can write
-to) and reports bytes received from each to a ``PeerListener``. It knows
-nothing of MAVLink. ``close`` closes every socket it opened.
+A transport turns a socket or device into ``Peer`` objects (a far end one can
+write to) and reports bytes received from each to a ``PeerListener``. It knows
+nothing of MAVLink. ``close`` closes every socket it opened. A ``Fanout`` lets
+several vehicles share one transport, as a fleet behind one radio or router:
+each hears everything and answers through the same far end.
 """
 
 from __future__ import annotations
 
 import asyncio
 import logging
+from collections.abc import Sequence
 from typing import Protocol
 
 from sitl_mock.connection import Endpoint, LinkKind
+from vehicles.serial_port import SerialPort
 
 log = logging.getLogger(__name__)
 
@@ -176,7 +180,70 @@ class _TcpServerTransport:
             self._server = None
 
 
+class _SerialPeer:
+    datagrams = False
+
+    def __init__(self, port: SerialPort) -> None:
+        self._port = port
+        self.name = f"serial:{port.device}"
+
+    def write(self, data: bytes) -> None:
+        self._port.write(data)
+
+
+class _SerialTransport:
+    """A serial device (the vehicle's end of a radio), reopened when it comes back."""
+
+    def __init__(self, endpoint: Endpoint, listener: PeerListener) -> None:
+        self.endpoint = endpoint
+        self._listener = listener
+        self._port = SerialPort(
+            endpoint.host,
+            endpoint.baud,
+            flow_control=endpoint.flow_control,
+            on_data=self._received,
+        )
+        self._peer = _SerialPeer(self._port)
+
+    @property
+    def local_port(self) -> int:
+        return 0
+
+    async def start(self) -> None:
+        await self._port.open()
+        self._listener.peer_opened(self._peer)
+
+    def _received(self, data: bytes) -> None:
+        self._listener.peer_received(self._peer, data)
+
+    async def close(self) -> None:
+        await self._port.close()
+        self._listener.peer_closed(self._peer)
+
+
+class Fanout:
+    """A ``PeerListener`` that passes every event on to several: the vehicles behind
+    one radio or router, each hearing all that comes and answering the same peer."""
+
+    def __init__(self, listeners: Sequence[PeerListener]) -> None:
+        self.listeners = list(listeners)
+
+    def peer_opened(self, peer: Peer) -> None:
+        for listener in self.listeners:
+            listener.peer_opened(peer)
+
+    def peer_received(self, peer: Peer, data: bytes) -> None:
+        for listener in self.listeners:
+            listener.peer_received(peer, data)
+
+    def peer_closed(self, peer: Peer) -> None:
+        for listener in self.listeners:
+            listener.peer_closed(peer)
+
+
 def make_transport(endpoint: Endpoint, listener: PeerListener) -> Transport:
     if endpoint.kind is LinkKind.TCPIN:
         return _TcpServerTransport(endpoint, listener)
+    if endpoint.kind is LinkKind.SERIAL:
+        return _SerialTransport(endpoint, listener)
     return _UdpTransport(endpoint, listener)

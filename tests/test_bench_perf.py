@@ -94,6 +94,8 @@ def test_the_live_mission_gives_every_vehicle_work_on_loopback(tmp_path: Path) -
     assert all(v.connection.startswith("udpin:127.0.0.1:") for v in mission.fleet)
     assert len({v.connection for v in mission.fleet}) == 16
     assert live_map(16).free_count >= 25 * 16
+    shared = load_mission(write_live_mission(tmp_path, 16, "shared"))
+    assert len({v.connection for v in shared.fleet}) == 1
 
 
 def _planner_row(kind: str, size: int, agents: int, **figures: object) -> dict[str, object]:
@@ -112,10 +114,10 @@ def test_the_goals_are_judged_on_the_cases_that_measure_them() -> None:
         {"kind": "rooms", "size": 1000, "agents": 50, "error": "over 600 s", "coverage_pct": 44.0},
     ]
     live = [
-        {"vehicles": 16, "coverage_pct": 100.0, "lost": 0, "latency_ms_p99": 90.0},
-        {"vehicles": 64, "coverage_pct": 100.0, "lost": 0, "latency_ms_p99": 1.9},
-        {"vehicles": 64, "coverage_pct": 100.0, "lost": 0, "latency_ms_p99": 20.0},
-        {"vehicles": 64, "error": "gcs run exited 1 without a report"},
+        {"vehicles": 16, "links": "own", "coverage_pct": 100.0, "lost": 0, "latency_ms_p99": 90.0},
+        {"vehicles": 64, "links": "own", "coverage_pct": 100.0, "lost": 0, "latency_ms_p99": 1.9},
+        {"vehicles": 64, "links": "own", "coverage_pct": 100.0, "lost": 0, "latency_ms_p99": 20.0},
+        {"vehicles": 64, "links": "own", "error": "gcs run exited 1 without a report"},
     ]
     found = goals(planner, live)
     assert [g.met for g in found] == [True, False, False, False, False, False, True, False, False]

@@ -48,7 +48,10 @@ def test_parse_endpoint(text: str, kind: EndpointKind, host: str, port: int) -> 
 @pytest.mark.parametrize(
     ("text", "why"),
     [
-        ("serial:/dev/ttyUSB0", "unknown kind"),
+        ("serial:/dev/ttyUSB0:fast", "baud rate 'fast' is not a number"),
+        ("/dev/ttyUSB0,0", "must be positive"),
+        ("serial:", "no serial device"),
+        ("radio:/dev/ttyUSB0", "unknown kind"),
         ("udpin:127.0.0.1", "missing port|not a number"),
         ("tcp:127.0.0.1:99999", "out of range"),
         ("tcp:10.0.0.1:5760", "not loopback"),
@@ -58,6 +61,29 @@ def test_parse_endpoint(text: str, kind: EndpointKind, host: str, port: int) -> 
 def test_bad_endpoints(text: str, why: str) -> None:
     with pytest.raises(EndpointError, match=why):
         parse_endpoint(text)
+
+
+@pytest.mark.parametrize(
+    ("text", "device", "baud", "flow"),
+    [
+        ("serial:/dev/ttyUSB0:57600", "/dev/ttyUSB0", 57600, False),
+        ("serial:///dev/ttyUSB0:115200", "/dev/ttyUSB0", 115200, False),
+        ("serial_flowcontrol:///dev/ttyACM0:921600", "/dev/ttyACM0", 921600, True),
+        ("/dev/ttyUSB1,57600", "/dev/ttyUSB1", 57600, False),
+        ("/dev/serial/by-id/usb-radio", "/dev/serial/by-id/usb-radio", 57600, False),
+    ],
+)
+def test_parse_serial_device(text: str, device: str, baud: int, flow: bool) -> None:
+    """MAVSDK's, pymavlink's and MAVProxy's spellings; a serial device is local, so it
+    needs no --allow-remote."""
+    ep = parse_endpoint(text)
+    assert (ep.kind, ep.device, ep.baud, ep.flow_control) == (
+        EndpointKind.SERIAL,
+        device,
+        baud,
+        flow,
+    )
+    assert parse_endpoint(str(ep)) == ep
 
 
 def test_remote_allowed_explicitly() -> None:

@@ -192,6 +192,24 @@ def test_generated_vehicles_avoid_taken_connections(tmp_path: Path) -> None:
     ]
 
 
+def test_vehicles_may_share_one_connection(tmp_path: Path) -> None:
+    """One radio or router for the fleet: a connection in the defaults is every
+    vehicle's that names none, including those ``--agents`` adds; one may name its own."""
+    radio = "serial:/dev/ttyUSB0:57600"
+    vehicle = '{sysid: 4, connection: "tcp:127.0.0.1:5760"}'
+    text = (
+        f"map: m.txt\nfleet:\n  count: 3\n  defaults: {{connection: '{radio}'}}\n"
+        f"  vehicles: [{{sysid: 1}}, {vehicle}]\n"
+    )
+    mission = load_mission(write(tmp_path, text))
+    assert [(v.sysid, v.connection) for v in mission.fleet] == [
+        (1, radio),
+        (4, "tcp:127.0.0.1:5760"),
+        (2, radio),
+    ]
+    assert [v.connection for v in mission.with_agents(5).fleet[3:]] == [radio, radio]
+
+
 def test_charger_overrides_the_pad(tmp_path: Path) -> None:
     mission = load_mission(write(tmp_path, "map: m.txt\ncharger: [1, 1]\n"))
     assert mission.charger == (1, 1)
@@ -266,9 +284,9 @@ BAD: list[tuple[str, str | None, str]] = [
         "fleet.vehicles[0].sysid: must be an integer in 1..255, got 0",
     ),
     (
-        "map: m.txt\nfleet: {vehicles: [{connection: 'udp:a'}, {connection: 'udp:a'}]}\n",
+        "map: m.txt\nfleet: {defaults: {connection: 5}}\n",
         None,
-        "fleet.vehicles[1].connection: 'udp:a' is already used by fleet.vehicles[0]",
+        "fleet.defaults.connection: must be a non-empty string, got 5",
     ),
     ("map: m.txt\nfleet: {vehicles: 3}\n", None, "fleet.vehicles: must be a list, got a number"),
     (

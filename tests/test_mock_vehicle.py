@@ -454,5 +454,8 @@ def test_connection_strings_mirror() -> None:
     with pytest.raises(ConnectionStringError, match="loopback"):
         parse_mock_side("udpout:192.168.1.10:14550")
     assert parse_mock_side("udpout:192.168.1.10:14550", allow_non_loopback=True).port == 14550
-    with pytest.raises(ConnectionStringError):
-        parse_mock_side("serial:/dev/ttyUSB0:57600")
+    serial = parse_mock_side("serial:///dev/ttyUSB0:115200")
+    assert (serial.host, serial.baud) == ("/dev/ttyUSB0", 115200)
+    assert parse_mock_side("/dev/ttyACM0,57600").host == "/dev/ttyACM0"
+    with pytest.raises(ConnectionStringError, match="far end is another device"):
+        mirror("serial:/dev/ttyUSB0:57600")

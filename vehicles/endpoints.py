@@ -4,10 +4,14 @@
 ``udpout:HOST:PORT``  send to HOST:PORT (the vehicle listens there).
 ``tcp:HOST:PORT``     connect to a vehicle serving TCP (ArduPilot SITL on 5760).
 ``tcpin:HOST:PORT``   accept one TCP client at a time on HOST:PORT.
+``serial:DEVICE:BAUD`` a serial device (a telemetry radio), e.g. ``serial:/dev/ttyUSB0:57600``;
+                      also MAVSDK's ``serial:///dev/ttyUSB0:57600`` (``serial_flowcontrol:``
+                      for RTS/CTS flow control) and MAVProxy's ``/dev/ttyUSB0,57600``.
 
 The ``udpin://`` URL form that MAVSDK uses is accepted too. Only loopback
 addresses are allowed unless the caller explicitly allows others, so a test or
-a simulation never talks to a real vehicle by accident.
+a simulation never talks to a real vehicle by accident; a serial device is on
+this machine and always allowed.
 """
 
 from __future__ import annotations
@@ -25,22 +29,40 @@ class EndpointKind(StrEnum):
     UDP_OUT = "udpout"
     TCP = "tcp"
     TCP_IN = "tcpin"
+    SERIAL = "serial"
 
 
 _LOOPBACK_NAMES = {"localhost"}
+#: The usual rate of SiK and RFD telemetry radios (and pymavlink's default).
+DEFAULT_BAUD = 57600
+_SERIAL_KINDS = {"serial": False, "serial_flowcontrol": True}
 
 
 @dataclass(frozen=True)
 class Endpoint:
+    """A network address, or for ``SERIAL`` a device (``host``) at ``baud``."""
+
     kind: EndpointKind
     host: str
-    port: int
+    port: int = 0
+    baud: int = 0
+    #: ``SERIAL``: RTS/CTS hardware flow control.
+    flow_control: bool = False
 
     def __str__(self) -> str:
+        if self.kind is EndpointKind.SERIAL:
+            kind = "serial_flowcontrol" if self.flow_control else "serial"
+            return f"{kind}:{self.host}:{self.baud}"
         return f"{self.kind.value}:{self.host}:{self.port}"
 
     @property
+    def device(self) -> str:
+        return self.host
+
+    @property
     def is_loopback(self) -> bool:
+        if self.kind is EndpointKind.SERIAL:
+            return True  # a device of this machine, never a network
         if self.host in _LOOPBACK_NAMES:
             return True
         try:
@@ -55,6 +77,9 @@ def parse_endpoint(text: str, *, allow_remote: bool = False) -> Endpoint:
     Raises ``EndpointError`` with the reason on bad syntax, an unknown kind, a
     port out of range, or a non-loopback host when ``allow_remote`` is false.
     """
+    serial = parse_serial(text)
+    if serial is not None:
+        return serial
     kind_text, sep, rest = text.strip().partition(":")
     if not sep:
         raise EndpointError(text, "expected KIND:HOST:PORT, e.g. udpin:127.0.0.1:14550")
@@ -62,8 +87,10 @@ def parse_endpoint(text: str, *, allow_remote: bool = False) -> Endpoint:
     try:
         kind = EndpointKind(kind_text.lower())
     except ValueError:
-        kinds = ", ".join(k.value for k in EndpointKind)
-        raise EndpointError(text, f"unknown kind {kind_text!r} (use one of {kinds})") from None
+        kinds = ", ".join(k.value for k in EndpointKind if k is not EndpointKind.SERIAL)
+        raise EndpointError(
+            text, f"unknown kind {kind_text!r} (use one of {kinds}, or serial:DEVICE:BAUD)"
+        ) from None
     host, sep, port_text = rest.rpartition(":")
     if not sep:
         raise EndpointError(text, "missing port")
@@ -81,6 +108,36 @@ def parse_endpoint(text: str, *, allow_remote: bool = False) -> Endpoint:
     if not allow_remote and not endpoint.is_loopback:
         raise EndpointError(text, f"host {host} is not loopback (--allow-remote allows it)")
     return endpoint
+
+
+def parse_serial(text: str) -> Endpoint | None:
+    """A serial device in any of the spellings of the module doc, else None.
+
+    ``serial:/dev/ttyUSB0:57600``, ``serial:///dev/ttyUSB0:57600``,
+    ``serial_flowcontrol:///dev/ttyUSB0:57600``, ``/dev/ttyUSB0,57600``,
+    ``/dev/ttyUSB0`` (at ``DEFAULT_BAUD``); ``COM3,57600`` on Windows."""
+    raw = text.strip()
+    kind_text, sep, rest = raw.partition(":")
+    flow_control = _SERIAL_KINDS.get(kind_text.lower())
+    if sep and flow_control is not None:
+        rest = rest.removeprefix("//")
+        device, sep, baud_text = rest.rpartition(":")
+        if not sep:
+            device, baud_text = rest, ""
+    elif raw.startswith("/dev/") or raw.upper().startswith("COM"):
+        flow_control = False
+        device, _, baud_text = raw.partition(",")
+    else:
+        return None
+    if not device:
+        raise EndpointError(text, "no serial device, e.g. serial:/dev/ttyUSB0:57600")
+    try:
+        baud = int(baud_text) if baud_text else DEFAULT_BAUD
+    except ValueError:
+        raise EndpointError(text, f"baud rate {baud_text!r} is not a number") from None
+    if baud <= 0:
+        raise EndpointError(text, f"baud rate {baud} must be positive")
+    return Endpoint(EndpointKind.SERIAL, device, baud=baud, flow_control=flow_control)
 
 
 def free_loopback_udp_ports(count: int) -> list[int]:

@@ -22,7 +22,7 @@ import math
 from collections.abc import AsyncIterator, Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Any
+from typing import Any, Self
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
@@ -50,7 +50,13 @@ from vehicles.telemetry import (
     TopicStreams,
     VehicleStatus,
 )
-from vehicles.transport import GCS_COMPONENT_ID, GCS_SYSTEM_ID, MavlinkTransport
+from vehicles.transport import (
+    GCS_COMPONENT_ID,
+    GCS_SYSTEM_ID,
+    MavlinkTransport,
+    MessagePort,
+    TransportStats,
+)
 
 log = logging.getLogger(__name__)
 
@@ -98,6 +104,18 @@ class RejectedFrames:
     #: ``udpin`` datagrams speaking for the vehicle from a second address (an impostor).
     other_address: int = 0
 
+    @classmethod
+    def of(cls, stats: TransportStats, *, foreign_frames: int = 0, implausible: int = 0) -> Self:
+        """A transport's counts, with the ones its reader keeps."""
+        return cls(
+            bad_frames=stats.bad_frames,
+            bad_signatures=stats.bad_signatures,
+            unknown_messages=stats.unknown_messages,
+            foreign_frames=foreign_frames,
+            implausible=implausible,
+            other_address=stats.other_address,
+        )
+
     @property
     def total(self) -> int:
         return sum(dataclasses.astuple(self))
@@ -112,7 +130,8 @@ class RejectedFrames:
 
 
 def rejected_frames(links: Iterable[VehicleLink]) -> RejectedFrames:
-    """The rejected frames of several links, added up."""
+    """The rejected frames of several links, added up (a shared connection's own counts
+    are its network's: ``MavlinkNetwork.rejected``)."""
     total = RejectedFrames()
     for link in links:
         total += link.rejected
@@ -140,11 +159,15 @@ class LinkSettings:
 
 
 class VehicleLink:
-    """The link to one vehicle (``target_system``; the first autopilot heard if None)."""
+    """The link to one vehicle (``target_system``; the first autopilot heard if None).
+
+    On a transport of its own it sends the station's heartbeat and counts frames of
+    other systems as foreign; on its share of a connection that carries several
+    vehicles (``vehicles.network``) the network does both, once per connection."""
 
     def __init__(
         self,
-        transport: MavlinkTransport,
+        transport: MessagePort,
         *,
         target_system: int | None = None,
         target_component: int | None = None,
@@ -153,6 +176,8 @@ class VehicleLink:
         on_wait: Callable[[str], None] | None = None,
     ) -> None:
         self.transport = transport
+        #: Whether the transport is ours alone (not a share of a fleet's connection).
+        self.owns_transport = isinstance(transport, MavlinkTransport)
         self.settings = settings or LinkSettings()
         self._target_system = target_system
         self._target_component = target_component
@@ -162,9 +187,9 @@ class VehicleLink:
         #: Good messages from another system than the vehicle's, ignored.
         self.foreign_frames = 0
         self.implausible = 0
-        transport.follow_peer = self._from_vehicle
-        transport.lock_peer = self._from_known_vehicle
-        transport.follow_moves = self.settings.follow_address
+        if isinstance(transport, MavlinkTransport):
+            transport.wanted = self._from_vehicle
+            transport.follow_moves = self.settings.follow_address
         self._fixed_profile = profile
         self.router = MessageRouter()
         self.streams = TopicStreams()
@@ -212,7 +237,10 @@ class VehicleLink:
 
     def start(self) -> None:
         loop = asyncio.get_running_loop()
-        for coro in (self._read(), self._send_heartbeats(), self._watch_heartbeat()):
+        tasks = [self._read(), self._watch_heartbeat()]
+        if self.owns_transport:
+            tasks.append(send_heartbeats(self.transport, self.settings.heartbeat_period_s))
+        for coro in tasks:
             self._tasks.append(loop.create_task(coro))
 
     async def close(self) -> None:
@@ -245,24 +273,18 @@ class VehicleLink:
             raise LinkError("no vehicle heard yet: wait_heartbeat() first")
         return self._target_system, self.target_component
 
-    def _from_known_vehicle(self, msg: Message) -> bool:
-        return self._target_system is not None and msg.get_srcSystem() == self._target_system
-
-    def _from_vehicle(self, msg: Message) -> bool:
-        """Whether ``msg`` comes from our vehicle (any system until one is known)."""
-        return self._target_system is None or msg.get_srcSystem() == self._target_system
+    def _from_vehicle(self, system: int) -> bool:
+        """Whether ``system`` is our vehicle (any system until one is known)."""
+        return self._target_system is None or system == self._target_system
 
     @property
     def rejected(self) -> RejectedFrames:
-        """Frames received and thrown away so far, by reason."""
-        stats = self.transport.stats
-        return RejectedFrames(
-            bad_frames=stats.bad_frames,
-            bad_signatures=stats.bad_signatures,
-            unknown_messages=stats.unknown_messages,
-            foreign_frames=self.foreign_frames,
-            implausible=self.implausible,
-            other_address=stats.other_address,
+        """Frames received and thrown away so far, by reason (on a shared connection,
+        those of this vehicle alone: the connection counts its garbage itself)."""
+        if not self.owns_transport:
+            return RejectedFrames(implausible=self.implausible)
+        return RejectedFrames.of(
+            self.transport.stats, foreign_frames=self.foreign_frames, implausible=self.implausible
         )
 
     @property
@@ -330,14 +352,14 @@ class VehicleLink:
         """Take in one message from the transport: ours (telemetry, replies) or a stranger's."""
         self.messages_in += 1
         if self._target_system is None:
-            if not _is_vehicle_heartbeat(msg):
+            if not is_vehicle_heartbeat(msg):
                 return
             self._target_system = msg.get_srcSystem()
             self._log = logging.LoggerAdapter(log, {"vehicle": self._target_system})
         if msg.get_srcSystem() != self._target_system:
             self.foreign_frames += 1
             return
-        if _is_vehicle_heartbeat(msg):
+        if is_vehicle_heartbeat(msg):
             if self._target_component is None:
                 self._target_component = msg.get_srcComponent()
             if msg.get_srcComponent() == self._target_component:
@@ -378,15 +400,6 @@ class VehicleLink:
                         "link lost: nothing heard for %g s", self.settings.link_lost_after_s
                     )
                     self.streams.publish(Topic.LINK, LinkEvent.LOST)
-
-    async def _send_heartbeats(self) -> None:
-        heartbeat = mavlink.MAVLink_heartbeat_message(
-            mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, mavlink.MAV_STATE_ACTIVE, 3
-        )
-        while True:
-            with contextlib.suppress(TransportClosed):
-                self.transport.send(heartbeat)
-            await asyncio.sleep(self.settings.heartbeat_period_s)
 
     # -- commands -----------------------------------------------------------------------
 
@@ -578,7 +591,19 @@ class VehicleLink:
         return await self.command_long(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, seq)
 
 
-def _is_vehicle_heartbeat(msg: Message) -> bool:
+async def send_heartbeats(transport: MessagePort, period_s: float) -> None:
+    """The ground station's HEARTBEAT on ``transport`` every ``period_s``, until cancelled."""
+    heartbeat = mavlink.MAVLink_heartbeat_message(
+        mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, mavlink.MAV_STATE_ACTIVE, 3
+    )
+    while True:
+        with contextlib.suppress(TransportClosed):
+            transport.send(heartbeat)
+        await asyncio.sleep(period_s)
+
+
+def is_vehicle_heartbeat(msg: Message) -> bool:
+    """A HEARTBEAT of a vehicle (not of a ground station or a component without autopilot)."""
     return (
         msg.get_type() == "HEARTBEAT"
         and msg.type != mavlink.MAV_TYPE_GCS

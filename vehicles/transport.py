@@ -1,10 +1,16 @@
-"""An asyncio MAVLink 2 transport over UDP or TCP, with pymavlink as codec only.
+"""An asyncio MAVLink 2 transport over UDP, TCP or serial, with pymavlink as codec only.
 
 One connection = one parser and one bounded queue of decoded messages. A
-datagram protocol (UDP) or one reader task per TCP connection parses incoming
+datagram protocol (UDP), one reader task per TCP connection, or a serial port
+(``vehicles.serial_port``, reopened when the device comes back) parses incoming
 bytes and puts messages into the queue; when the queue is full the oldest
 message is dropped (telemetry is periodic, so fresh beats complete). Garbage,
 CRC errors and bad signatures are counted, never raised.
+
+A ``udpin`` transport may hear several vehicles, each from its own address (one
+port for the fleet, as behind a router) or all from one (a radio): it keeps a
+table of system id -> address and sends each message to the address of its
+``target_system`` (broadcasts, and targets not heard yet, to every address).
 """
 
 from __future__ import annotations
@@ -14,12 +20,13 @@ import contextlib
 import logging
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from vehicles.endpoints import Endpoint, EndpointKind, parse_endpoint
 from vehicles.errors import LinkError, TransportClosed
+from vehicles.serial_port import SerialPort
 from vehicles.signing import SigningConfig, apply_signing
 
 log = logging.getLogger(__name__)
@@ -35,6 +42,27 @@ Tap = Callable[[str, bytes, mavlink.MAVLink_message], None]
 Address = tuple[str, int]
 
 
+class MessagePort(Protocol):
+    """What a vehicle's link reads and writes: a transport of its own, or its share
+    of a connection that carries several vehicles (``vehicles.network.SystemPort``)."""
+
+    endpoint: Endpoint
+    stats: TransportStats
+
+    @property
+    def closed(self) -> bool: ...
+
+    def send(self, msg: mavlink.MAVLink_message) -> bool: ...
+
+    async def recv(self) -> mavlink.MAVLink_message: ...
+
+    def __aiter__(self) -> AsyncIterator[mavlink.MAVLink_message]: ...
+
+    def add_tap(self, tap: Tap) -> None: ...
+
+    async def close(self) -> None: ...
+
+
 @dataclass
 class TransportStats:
     """Counters of one transport; read them for diagnostics, they never raise."""
@@ -48,6 +76,7 @@ class TransportStats:
     unknown_messages: int = 0
     dropped_in: int = 0
     unsent: int = 0
+    #: TCP reconnections, and serial devices opened again after they vanished.
     reconnects: int = 0
     #: ``udpin``: datagrams speaking for our vehicle from an address other than the one it
     #: first spoke from (an impostor, unless the operator lets the address move).
@@ -61,13 +90,12 @@ class MavlinkTransport:
     ``recv()`` (or ``async for``) gives decoded messages from any system on the
     endpoint; ``send(msg)`` packs with our system/component id (and signature).
     A ``udpin`` transport is silent (``send`` counts ``unsent``) until it has
-    heard someone, and then replies to the sender of a good message that
-    ``follow_peer`` accepts (garbage never moves the reply address). Once one that
-    ``lock_peer`` accepts has come (our vehicle, known by its system id), the reply
-    address stays where it is: a datagram from another address speaking for the
-    vehicle is dropped whole and counted (``stats.other_address``), unless
-    ``follow_moves`` (a vehicle whose address may change). Without signing, any host
-    that can reach the port can still speak first; signing is the real protection.
+    heard someone. The first good message of a system that ``wanted`` accepts fixes
+    that system's address (garbage never sets one); a datagram from another address
+    speaking for it later is dropped whole and counted (``stats.other_address``),
+    unless ``follow_moves`` (a vehicle whose address may change). Without signing,
+    any host that can reach the port can still speak first; signing is the real
+    protection.
     """
 
     def __init__(
@@ -90,14 +118,18 @@ class MavlinkTransport:
         self._datagram: asyncio.DatagramTransport | None = None
         self._writer: asyncio.StreamWriter | None = None
         self._server: asyncio.Server | None = None
+        self._serial: SerialPort | None = None
         self._tasks: set[asyncio.Task[None]] = set()
+        #: Where the last message came from (``udpin``), or where we send (``udpout``).
         self.peer: Address | None = None
-        #: ``udpin``: only a datagram with a good message this accepts moves the reply
-        #: address (``peer``), so garbage or a stranger's frames cannot divert what we send.
-        self.follow_peer: Callable[[mavlink.MAVLink_message], bool] = _any_message
-        self.lock_peer: Callable[[mavlink.MAVLink_message], bool] = _no_message
+        #: ``udpin``: the address of each system heard, by system id.
+        self.peers: dict[int, Address] = {}
+        #: ``udpin``: the systems whose address we keep (the vehicles we talk to), so
+        #: that garbage or a stranger's frames cannot divert what we send.
+        self.wanted: Callable[[int], bool] = _any_system
         self.follow_moves = False
-        self._peer_locked = False
+        #: Serial: told False when the device vanishes, True when it is back.
+        self.on_device: Callable[[bool], None] | None = None
 
     # -- life cycle -----------------------------------------------------------------
 
@@ -135,6 +167,15 @@ class MavlinkTransport:
             self._server = await asyncio.start_server(
                 lambda r, w: self._attach_stream(r, w, reconnect=False), ep.host, ep.port
             )
+        elif ep.kind is EndpointKind.SERIAL:
+            self._serial = SerialPort(
+                ep.device,
+                ep.baud,
+                flow_control=ep.flow_control,
+                on_data=self._feed,
+                on_state=self._device_state,
+            )
+            await self._serial.open()
 
     async def close(self) -> None:
         if self._closed.is_set():
@@ -146,6 +187,8 @@ class MavlinkTransport:
             self._writer.close()
         if self._server is not None:
             self._server.close()
+        if self._serial is not None:
+            await self._serial.close()
         for task in list(self._tasks):
             task.cancel()
         for task in list(self._tasks):
@@ -186,7 +229,7 @@ class MavlinkTransport:
             raise TransportClosed(f"{self.endpoint} is closed")
         buf = bytes(msg.pack(self.codec))
         self.codec.seq = (self.codec.seq + 1) % 256
-        sent = self._write(buf)
+        sent = self._write(buf, getattr(msg, "target_system", 0))
         if not sent:
             self.stats.unsent += 1
             return False
@@ -195,36 +238,48 @@ class MavlinkTransport:
         self._run_taps("out", buf, msg)
         return True
 
-    def _write(self, buf: bytes) -> bool:
+    def send_raw(self, frame: bytes, target_system: int = 0) -> bool:
+        """Send a frame as it is (another station's, passed on with its own sequence
+        number and signature); False when there is nobody to send to."""
+        if self.closed:
+            return False
+        sent = self._write(frame, target_system)
+        if sent:
+            self.stats.bytes_out += len(frame)
+        return sent
+
+    def _write(self, buf: bytes, target_system: int) -> bool:
         if self._datagram is not None:
-            if self.peer is None or self._datagram.is_closing():
+            if self._datagram.is_closing():
                 return False
-            self._datagram.sendto(buf, self.peer)
-            return True
+            for address in self._addresses(target_system):
+                self._datagram.sendto(buf, address)
+            return self.peer is not None
         if self._writer is not None and not self._writer.is_closing():
             self._writer.write(buf)
             return True
+        if self._serial is not None:
+            return self._serial.write(buf)
         return False
+
+    def _addresses(self, target_system: int) -> list[Address]:
+        """Where a message for ``target_system`` goes: its own address when known, else
+        every address heard (a broadcast, or a vehicle not heard yet)."""
+        if self.endpoint.kind is not EndpointKind.UDP_IN:
+            return [] if self.peer is None else [self.peer]
+        address = self.peers.get(target_system)
+        if address is not None:
+            return [address]
+        everyone = list(dict.fromkeys(self.peers.values()))
+        if not everyone and self.peer is not None:
+            everyone = [self.peer]
+        return everyone
 
     # -- receiving ------------------------------------------------------------------
 
     async def recv(self) -> mavlink.MAVLink_message:
         """The next message; raises ``TransportClosed`` once closed."""
-        if not self._queue.empty():
-            return self._queue.get_nowait()
-        if self.closed:
-            raise TransportClosed(f"{self.endpoint} is closed")
-        getter = asyncio.ensure_future(self._queue.get())
-        closer = asyncio.ensure_future(self._closed.wait())
-        try:
-            await asyncio.wait({getter, closer}, return_when=asyncio.FIRST_COMPLETED)
-        finally:
-            closer.cancel()
-            if not getter.done():
-                getter.cancel()
-        if getter.done() and not getter.cancelled():
-            return getter.result()
-        raise TransportClosed(f"{self.endpoint} is closed")
+        return await next_message(self._queue, self._closed, f"{self.endpoint} is closed")
 
     async def __aiter__(self) -> AsyncIterator[mavlink.MAVLink_message]:
         while True:
@@ -259,25 +314,37 @@ class MavlinkTransport:
         return [msg for msg in msgs if self._accept(msg)]
 
     def _take_peer(self, source: Address, msgs: list[mavlink.MAVLink_message]) -> bool:
-        """``udpin``: follow or lock the reply address; False drops a datagram that speaks
-        for our vehicle from another address than the locked one."""
-        ours = [m for m in msgs if _is_message(m) and self.follow_peer(m)]
+        """``udpin``: note where each wanted system speaks from; False drops a datagram
+        that speaks for a system from another address than the one it first used."""
+        systems = {m.get_srcSystem() for m in msgs if _is_message(m)}
+        ours = [s for s in systems if self.wanted(s)]
         if not ours:
             return True
         address = (source[0], source[1])
-        if self._peer_locked and address != self.peer and not self.follow_moves:
-            self.stats.other_address += 1
-            if self.stats.other_address == 1:
-                log.warning(
-                    "%s: %s speaks for the vehicle heard from %s: ignored",
-                    self.endpoint,
-                    address,
-                    self.peer,
-                )
-            return False
+        for system in ours:
+            known = self.peers.get(system)
+            if known is not None and known != address and not self.follow_moves:
+                self.stats.other_address += 1
+                if self.stats.other_address == 1:
+                    log.warning(
+                        "%s: %s speaks for system %d heard from %s: ignored",
+                        self.endpoint,
+                        address,
+                        system,
+                        known,
+                    )
+                return False
+        for system in ours:
+            self.peers[system] = address
         self.peer = address
-        self._peer_locked = self._peer_locked or any(map(self.lock_peer, ours))
         return True
+
+    def _device_state(self, present: bool) -> None:
+        if present:
+            self.stats.reconnects += 1  # a serial device opened again after it vanished
+            self._reset_parser()
+        if self.on_device is not None:
+            self.on_device(present)
 
     def _accept(self, msg: mavlink.MAVLink_message) -> bool:
         """Count ``msg``; queue it and say true if it is a good message."""
@@ -367,12 +434,30 @@ class _DatagramProtocol(asyncio.DatagramProtocol):
         log.debug("%s: %s", self.owner.endpoint, exc)
 
 
-def _any_message(_msg: mavlink.MAVLink_message) -> bool:
+async def next_message(
+    queue: asyncio.Queue[mavlink.MAVLink_message], closed: asyncio.Event, why: str
+) -> mavlink.MAVLink_message:
+    """The next message of ``queue``; ``TransportClosed(why)`` once ``closed`` is set and
+    nothing is left."""
+    if not queue.empty():
+        return queue.get_nowait()
+    if closed.is_set():
+        raise TransportClosed(why)
+    getter = asyncio.ensure_future(queue.get())
+    closer = asyncio.ensure_future(closed.wait())
+    try:
+        await asyncio.wait({getter, closer}, return_when=asyncio.FIRST_COMPLETED)
+    finally:
+        closer.cancel()
+        if not getter.done():
+            getter.cancel()
+    if getter.done() and not getter.cancelled():
+        return getter.result()
+    raise TransportClosed(why)
+
+
+def _any_system(_system: int) -> bool:
     return True
-
-
-def _no_message(_msg: mavlink.MAVLink_message) -> bool:
-    return False
 
 
 def _is_message(msg: mavlink.MAVLink_message) -> bool:

@@ -34,6 +34,8 @@ from gcs.mission_log import MissionLog, NullLog
 from gcs.preflight import check_range
 from gcs.report import print_summary
 from gcs.result import RunResult
+from vehicles.endpoints import parse_endpoint
+from vehicles.errors import EndpointError
 from vehicles.keyfile import KeyFile, KeyFileError, load_key_file, loose_permissions
 
 #: How much faster than real time the mock fleet of ``--sim`` runs, unless ``--speedup``.
@@ -93,6 +95,22 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "address (a router restarted); by default the station stays with the address the "
         "vehicle first spoke from and ignores, counts and shows frames that claim to be it "
         "from elsewhere (an impostor; signing with --keys is the real protection)",
+    )
+    p.add_argument(
+        "--forward",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="copy every frame the vehicles send to another ground station, as MAVProxy's "
+        "--out does (repeatable): e.g. udpout:127.0.0.1:14550 for QGroundControl on this "
+        "machine; signed frames stay signed. What it sends back is dropped unless "
+        "--forward-commands",
+    )
+    p.add_argument(
+        "--forward-commands",
+        action="store_true",
+        help="pass what the --forward stations send on to the vehicles (commands, missions); "
+        "by default they only watch",
     )
     p.add_argument(
         "--resume",
@@ -254,7 +272,21 @@ def options_from(args: argparse.Namespace, mission: Mission) -> LiveOptions:
         keys=keys_from(args, mission),
         allow_remote=args.allow_remote,
         follow_address=args.follow_address,
+        forwards=tuple(forward_endpoints(args)),
+        forward_commands=args.forward_commands,
     )
+
+
+def forward_endpoints(args: argparse.Namespace) -> list[str]:
+    """The ``--forward`` endpoints, checked now for a one-line error."""
+    if args.forward_commands and not args.forward:
+        raise UsageError("--forward-commands needs --forward ENDPOINT")
+    for text in args.forward:
+        try:
+            parse_endpoint(text, allow_remote=args.allow_remote)
+        except EndpointError as exc:
+            raise UsageError(f"--forward: {exc}") from None
+    return list(args.forward)
 
 
 def keys_from(args: argparse.Namespace, mission: Mission) -> KeyFile | None:

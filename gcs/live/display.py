@@ -16,6 +16,7 @@ from rich.text import Text
 
 from gcs.live.mission import LiveRun
 from gcs.live.shared import Level, Phase, VehicleView
+from vehicles.link import RejectedFrames
 
 REFRESH_HZ = 4
 _PHASE_STYLE = {
@@ -41,17 +42,23 @@ _REJECTED_LABELS = (
 
 
 def _rejected_caption(run: LiveRun) -> str | None:
-    """Frames each link threw away (garbage, strangers), or None while there are none."""
+    """Frames each link and connection threw away (garbage, strangers), or None while
+    there are none."""
+    counted: list[tuple[str, RejectedFrames]] = [
+        (f"vehicle {sysid}", link.rejected)
+        for sysid, link in sorted(list(run.links.items()))  # list(): the loop may add links
+    ]
+    if run.network is not None:
+        counted += [(name, c.rejected) for name, c in list(run.network.connections.items())]
     parts = []
-    for sysid, link in sorted(list(run.links.items())):  # list(): the loop may add links
-        counts = link.rejected
+    for name, counts in counted:
         if counts.total:
             text = ", ".join(
                 f"{getattr(counts, field)} {label}"
                 for field, label in _REJECTED_LABELS
                 if getattr(counts, field)
             )
-            parts.append(f"vehicle {sysid}: {text}")
+            parts.append(f"{name}: {text}")
     return "rejected frames: " + "; ".join(parts) if parts else None
 
 

@@ -63,9 +63,10 @@ from vehicles.clock import Clock, ScaledClock
 from vehicles.commands import CommandSettings
 from vehicles.errors import LinkError
 from vehicles.keyfile import KeyFile
-from vehicles.link import LinkSettings, VehicleLink, rejected_frames
+from vehicles.link import LinkSettings, RejectedFrames, VehicleLink, rejected_frames
 from vehicles.mission_protocol import MissionSettings
 from vehicles.modes import FlightMode, VehicleKind
+from vehicles.network import MavlinkNetwork
 from vehicles.parameters import ParameterSettings
 from vehicles.telemetry import Position, Topic
 
@@ -147,6 +148,10 @@ class LiveOptions:
     #: MAVLink 2 signing keys (``gcs run --keys``): a vehicle with a key is signed both
     #: ways and its unsigned frames are refused; with ``sim`` its mock does the same.
     keys: KeyFile | None = field(default=None, repr=False)
+    #: Other ground stations that get a copy of every vehicle frame (``--forward``).
+    forwards: tuple[str, ...] = ()
+    #: Pass what those stations send on to the vehicles (``--forward-commands``).
+    forward_commands: bool = False
     energy: EnergySettings = field(default_factory=EnergySettings)
 
 
@@ -162,10 +167,18 @@ class LiveRun:
     aborted: bool = False
     #: The open links (the display shows what each one rejected).
     links: dict[int, VehicleLink] = field(default_factory=dict)
+    #: The connections the links share (what each threw away is shown too).
+    network: MavlinkNetwork | None = None
 
     @property
     def elapsed_s(self) -> float:
         return 0.0 if self.started_at is None else self.clock.now() - self.started_at
+
+    @property
+    def rejected(self) -> RejectedFrames:
+        """Every frame thrown away: by the links, and by the connections they share."""
+        total = rejected_frames(self.links.values())
+        return total if self.network is None else total + self.network.rejected
 
 
 #: The readiness wait in real seconds at least: it is made of protocol exchanges (rates,
@@ -254,14 +267,26 @@ async def run_live(
     links = run.links
     fleet: MockFleet | None = None
     t0 = clock.now()
+
+    def notice(text: str) -> None:  # a stranger on a link, a radio unplugged or back
+        notify(text, Level.WARNING, None)
+        mission_log.event(clock.now() - t0, text, "warning")
+
+    network = run.network = MavlinkNetwork(
+        link_settings(options, clock), allow_remote=options.allow_remote, on_notice=notice
+    )
     try:
-        settings = link_settings(options, clock)
         # A ``tcp`` vehicle serves and the ground station dials it: the mock fleet must be
         # up first; a ``udpin`` end listens, and is opened before its vehicle sends.
         dialled = [s for s in mission.fleet if _dials(s.connection)]
         listening = [s for s in mission.fleet if not _dials(s.connection)]
         for spec in listening:
-            links[spec.sysid] = await _open_link(spec, settings, options, views)
+            links[spec.sysid] = await _open_link(spec, network, options, views)
+        for forward in options.forwards:
+            try:
+                await network.forward(forward, commands=options.forward_commands)
+            except LinkError as exc:
+                raise MissionRefused(f"--forward {forward}: {exc}", EXIT_BAD_INPUT) from exc
         if options.sim:
             fleet = MockFleet(
                 sim_configs(mission, options.faults, options.keys),
@@ -272,7 +297,7 @@ async def run_live(
             )
             await fleet.start()
         for spec in dialled:
-            links[spec.sysid] = await _open_link(spec, settings, options, views)
+            links[spec.sysid] = await _open_link(spec, network, options, views)
         for spec in mission.fleet:
             _tap(links[spec.sysid], spec.sysid, mission_log, clock, t0)
         pilots = {
@@ -297,6 +322,7 @@ async def run_live(
     finally:
         for link in links.values():
             await link.close()
+        await network.close()
         if fleet is not None:
             await fleet.stop()
 
@@ -307,7 +333,10 @@ def _dials(connection: str) -> bool:
 
 
 async def _open_link(
-    spec: VehicleSpec, settings: LinkSettings, options: LiveOptions, views: dict[int, VehicleView]
+    spec: VehicleSpec,
+    network: MavlinkNetwork,
+    options: LiveOptions,
+    views: dict[int, VehicleView],
 ) -> VehicleLink:
     view = views[spec.sysid]
 
@@ -315,12 +344,10 @@ async def _open_link(
         view.detail = text
 
     try:
-        link = await VehicleLink.connect(
+        link = await network.link(
             spec.connection,
-            target_system=spec.sysid,
-            settings=settings,
+            spec.sysid,
             signing=None if options.keys is None else options.keys.signing(spec.sysid),
-            allow_remote=options.allow_remote,
             on_wait=waiting,
         )
     except LinkError as exc:
@@ -692,7 +719,8 @@ async def _fly(
             "speedup": options.speedup,
             "moves_held_back": planner.held_back,
             "waits": planner.waits,
-            **rejected_frames(links.values()).report_fields(),
+            **run.rejected.report_fields(),
+            "forward_refused": 0 if run.network is None else run.network.forward_refused,
             **load_figures(
                 planner.decision_latency_s,
                 sum(link.messages_in for link in links.values()) - messages0,
