@@ -26,6 +26,7 @@ from tests.serial_cable import SerialCable
 from vehicles.clock import ScaledClock
 from vehicles.commands import CommandSettings
 from vehicles.endpoints import free_loopback_udp_ports
+from vehicles.errors import LinkError
 from vehicles.link import LinkEvent, LinkSettings, VehicleLink
 from vehicles.modes import FlightMode
 from vehicles.network import MavlinkNetwork
@@ -275,3 +276,16 @@ async def test_forward_shares_signed_frames_and_passes_commands_only_when_asked(
                 await asyncio.sleep(0.3)  # an acknowledgement would be back by now
                 assert other.acks() == []
                 assert fleet.endpoints[2].heard["COMMAND_LONG", 2] == 0
+
+
+async def test_one_connection_carries_one_signing_key() -> None:
+    (port,) = free_loopback_udp_ports(1)
+    connection = f"udpin:127.0.0.1:{port}"
+    async with asyncio.timeout(BODY_S), MavlinkNetwork(SETTINGS) as network:
+        await network.link(connection, 1, signing=SigningConfig(bytes(range(32))))
+        await network.link(connection, 2, signing=SigningConfig(bytes(range(32))))
+        with pytest.raises(LinkError, match="different signing keys"):
+            await network.link(connection, 3, signing=SigningConfig(bytes(range(1, 33))))
+        with pytest.raises(LinkError, match="has a link already"):
+            await network.link(connection, 1, signing=SigningConfig(bytes(range(32))))
+        assert len(network.connections) == 1

@@ -11,7 +11,10 @@ namespace that has only loopback; run it as (root)::
         tests/test_sitl_ardupilot.py
 
 Each case starts the vehicles right before ``gcs run`` (so the station waits for
-their GPS fix and position estimate), with the stock parameters and only
+their GPS fix and position estimate); the station dials each vehicle's TCP port, or
+(the ``one-port`` case) every vehicle sends to one station UDP port from SITL's
+``--serial0 udpclient``, or (``mavproxy``) MAVProxy routes both vehicles' TCP ports
+to one station UDP port, with the stock parameters and only
 BATT_CAPACITY lowered so that every vehicle must charge, runs the real CLI to the
 end, then reads each vehicle back from SITL's second port: disarmed, within a metre
 of the pad.
@@ -22,6 +25,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import socket
 import subprocess
 import sys
 import time
@@ -88,6 +92,9 @@ CASES = {
     # Each covers about half the yard: smaller batteries, so that each still charges.
     "rover-and-copter": [replace(SKID, capacity_mah=400), replace(QUAD, capacity_mah=2000)],
 }
+CASES["rover-and-copter-one-port"] = CASES["rover-and-copter-mavproxy"] = CASES["rover-and-copter"]
+#: The one UDP port of the station in the cases that share one.
+STATION_PORT = 14550
 
 
 def only_loopback() -> bool:
@@ -104,7 +111,7 @@ def origin_for(pad: tuple[int, int]) -> tuple[float, float]:
     return lat, lon
 
 
-def write_mission(folder: Path, vehicles: list[Vehicle]) -> Path:
+def write_mission(folder: Path, vehicles: list[Vehicle], shared: bool = False) -> Path:
     (folder / "yard.txt").write_text(YARD)
     rows = YARD.splitlines()
     pad = next((r, row.index("C")) for r, row in enumerate(rows) if "C" in row)
@@ -118,10 +125,12 @@ def write_mission(folder: Path, vehicles: list[Vehicle]) -> Path:
         "  vehicles:",
     ]
     for i, v in enumerate(vehicles):
+        connection = (
+            f"udpin:127.0.0.1:{STATION_PORT}" if shared else f"tcp:127.0.0.1:{5760 + 10 * i}"
+        )
         lines.append(
             f"    - {{sysid: {i + 1}, type: {v.kind}, steering: {v.steering}, sensing: map, "
-            f'connection: "tcp:127.0.0.1:{5760 + 10 * i}", speed_m_s: 2.0, '
-            "charge_rate_pct_s: 2.0}"
+            f'connection: "{connection}", speed_m_s: 2.0, charge_rate_pct_s: 2.0}}'
         )
     path = folder / "mission.yaml"
     path.write_text("\n".join(lines) + "\n")
@@ -144,7 +153,11 @@ def sitl(tmp_path: Path) -> Iterator[list[subprocess.Popen[bytes]]]:
 
 
 def start_vehicle(
-    folder: Path, v: Vehicle, instance: int, started: list[subprocess.Popen[bytes]]
+    folder: Path,
+    v: Vehicle,
+    instance: int,
+    started: list[subprocess.Popen[bytes]],
+    serial0: str | None = None,
 ) -> None:
     assert SITL_DIR is not None
     sitl_dir = Path(SITL_DIR)
@@ -168,9 +181,43 @@ def start_vehicle(
         "--home",
         f"{HOME[0]},{HOME[1]},{HOME[2]},0",
         "-w",
+        *(["--serial0", serial0] if serial0 else []),
     ]
     log = (work / "sitl.out").open("wb")
     started.append(subprocess.Popen(argv, cwd=work, stdout=log, stderr=subprocess.STDOUT))
+
+
+def start_router(folder: Path, vehicles: int, started: list[subprocess.Popen[bytes]]) -> None:
+    """MAVProxy as a plain router: each vehicle's TCP port in, one UDP port out (once
+    every vehicle's port is open, so that MAVProxy finds each master there)."""
+    deadline = time.monotonic() + 60
+    for i in range(vehicles):
+        while True:
+            try:
+                socket.create_connection(("127.0.0.1", 5760 + 10 * i), timeout=1).close()
+                break
+            except OSError:
+                assert time.monotonic() < deadline, f"SITL {i} serves no TCP port"
+                time.sleep(0.2)  # polling a port nobody announces: SITL has no other sign
+    home = folder / "mavproxy"
+    home.mkdir()
+    argv = [
+        sys.executable,
+        str(Path(sys.executable).parent / "mavproxy.py"),
+        *(f"--master=tcp:127.0.0.1:{5760 + 10 * i}" for i in range(vehicles)),
+        f"--out=udpout:127.0.0.1:{STATION_PORT}",
+        "--non-interactive",
+        "--no-state",
+        "--default-modules=",
+        "--streamrate=-1",
+    ]
+    log = (home / "mavproxy.out").open("wb")
+    env = {**os.environ, "HOME": str(home)}
+    started.append(
+        subprocess.Popen(
+            argv, cwd=home, env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT
+        )
+    )
 
 
 def read_back(
@@ -218,9 +265,12 @@ def test_the_whole_mission_on_ardupilot_sitl(
     if not only_loopback():
         pytest.skip("SITL listens on every interface: run inside a loopback-only netns")
     vehicles = CASES[case]
-    mission = write_mission(tmp_path, vehicles)
+    mission = write_mission(tmp_path, vehicles, shared=case.endswith(("one-port", "mavproxy")))
+    one_port = f"udpclient:127.0.0.1:{STATION_PORT}" if case.endswith("one-port") else None
     for instance, v in enumerate(vehicles):
-        start_vehicle(tmp_path, v, instance, sitl)
+        start_vehicle(tmp_path, v, instance, sitl, serial0=one_port)
+    if case.endswith("mavproxy"):
+        start_router(tmp_path, len(vehicles), sitl)
     out = tmp_path / "out"
     started = time.monotonic()
     argv = ["run", str(mission), "--speedup", str(SPEEDUP), "--quiet", "--out", str(out)]

@@ -115,7 +115,8 @@ def parse_serial(text: str) -> Endpoint | None:
 
     ``serial:/dev/ttyUSB0:57600``, ``serial:///dev/ttyUSB0:57600``,
     ``serial_flowcontrol:///dev/ttyUSB0:57600``, ``/dev/ttyUSB0,57600``,
-    ``/dev/ttyUSB0`` (at ``DEFAULT_BAUD``); ``COM3,57600`` on Windows."""
+    ``/dev/ttyUSB0`` (at ``DEFAULT_BAUD``), any absolute path (a link to a device);
+    ``COM3,57600`` on Windows."""
     raw = text.strip()
     kind_text, sep, rest = raw.partition(":")
     flow_control = _SERIAL_KINDS.get(kind_text.lower())
@@ -124,7 +125,7 @@ def parse_serial(text: str) -> Endpoint | None:
         device, sep, baud_text = rest.rpartition(":")
         if not sep:
             device, baud_text = rest, ""
-    elif raw.startswith("/dev/") or raw.upper().startswith("COM"):
+    elif raw.startswith("/") or raw.upper().startswith("COM"):  # a device's path
         flow_control = False
         device, _, baud_text = raw.partition(",")
     else:
