@@ -352,14 +352,14 @@ class VehicleLink:
         """Take in one message from the transport: ours (telemetry, replies) or a stranger's."""
         self.messages_in += 1
         if self._target_system is None:
-            if not is_vehicle_heartbeat(msg):
+            if not _is_vehicle_heartbeat(msg):
                 return
             self._target_system = msg.get_srcSystem()
             self._log = logging.LoggerAdapter(log, {"vehicle": self._target_system})
         if msg.get_srcSystem() != self._target_system:
             self.foreign_frames += 1
             return
-        if is_vehicle_heartbeat(msg):
+        if _is_vehicle_heartbeat(msg):
             if self._target_component is None:
                 self._target_component = msg.get_srcComponent()
             if msg.get_srcComponent() == self._target_component:
@@ -602,8 +602,7 @@ async def send_heartbeats(transport: MessagePort, period_s: float) -> None:
         await asyncio.sleep(period_s)
 
 
-def is_vehicle_heartbeat(msg: Message) -> bool:
-    """A HEARTBEAT of a vehicle (not of a ground station or a component without autopilot)."""
+def _is_vehicle_heartbeat(msg: Message) -> bool:
     return (
         msg.get_type() == "HEARTBEAT"
         and msg.type != mavlink.MAV_TYPE_GCS

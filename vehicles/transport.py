@@ -270,10 +270,7 @@ class MavlinkTransport:
         address = self.peers.get(target_system)
         if address is not None:
             return [address]
-        everyone = list(dict.fromkeys(self.peers.values()))
-        if not everyone and self.peer is not None:
-            everyone = [self.peer]
-        return everyone
+        return list(dict.fromkeys(self.peers.values()))
 
     # -- receiving ------------------------------------------------------------------
 

@@ -21,11 +21,13 @@ from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK
 from vehicles.endpoints import Endpoint
 from vehicles.errors import LinkError, TransportClosed
+from vehicles.link import send_heartbeats
 from vehicles.signing import SigningConfig
 from vehicles.telemetry import TelemetryCache
 from vehicles.transport import MavlinkTransport
 
 DEFAULT_TIMEOUT_S = 5.0
+HEARTBEAT_PERIOD_S = 1.0
 _WANTED = (mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, mavlink.MAVLINK_MSG_ID_SYS_STATUS)
 
 
@@ -34,7 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "status",
         help="list the vehicles on one or more endpoints with mode, battery and position",
         description=(
-            "Listen on each ENDPOINT for vehicle heartbeats and print one row per vehicle: "
+            "Listen on each ENDPOINT (UDP, TCP or a serial radio) for vehicle heartbeats and "
+            "print one row per vehicle heard, however many share an endpoint: "
             "system id, type, autopilot, mode, armed, battery and position. Waits until every "
             "vehicle heard has reported position and battery, or until --timeout. Exit status "
             "1 if some endpoint had no vehicle."
@@ -102,7 +105,7 @@ async def _collect(
             transport = await MavlinkTransport.open(entry.endpoint, signing=signing)
             stack.push_async_callback(transport.close)
             tasks.append(asyncio.create_task(_listen(transport, entry, changed)))
-            tasks.append(asyncio.create_task(_heartbeats(transport)))
+            tasks.append(asyncio.create_task(send_heartbeats(transport, HEARTBEAT_PERIOD_S)))
         try:
             async with asyncio.timeout(timeout_s):
                 while not all(s.complete() for s in seen):
@@ -139,16 +142,6 @@ def _request_once(transport: MavlinkTransport, sysid: int, compid: int) -> None:
                     sysid, compid, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, message_id, 0, 0, 0, 0, 0, 0
                 )
             )
-
-
-async def _heartbeats(transport: MavlinkTransport) -> None:
-    heartbeat = mavlink.MAVLink_heartbeat_message(
-        mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, mavlink.MAV_STATE_ACTIVE, 3
-    )
-    while True:
-        with contextlib.suppress(TransportClosed):
-            transport.send(heartbeat)
-        await asyncio.sleep(1.0)
 
 
 def _table(seen: list[_Seen]) -> Table:
