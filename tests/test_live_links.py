@@ -27,6 +27,7 @@ import pytest
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from gcs.cli import main
 from tests.serial_cable import SerialCable
 from tests.test_live_mission import SMALL, one_port_demo, report, write_mission
 from tests.udp_hub import UdpHub
@@ -350,3 +351,21 @@ def test_status_lists_every_vehicle_behind_one_radio(tmp_path: Path) -> None:
     for sysid, kind in enumerate(types, 1):
         heard = rf"│\s*{sysid}\s*│\s*{mav_type[kind]}\s*│\s*ARDUPILOTMEGA"
         assert any(re.search(heard, row) for row in rows), rows
+
+
+@pytest.mark.parametrize(
+    ("extra", "connection", "message"),
+    [
+        (["--sim"], "serial:/dev/ttyUSB0:57600", "a serial link's far end is another device"),
+        (["--forward-commands"], None, "--forward-commands needs --forward ENDPOINT"),
+        (["--forward", "udpout:10.0.0.1:14550"], None, "--forward: bad endpoint"),
+        (["--forward", "qgc"], None, "--forward: bad endpoint 'qgc'"),
+    ],
+)
+def test_link_options_are_checked_before_anything_opens(
+    tmp_path: Path, extra: list[str], connection: str | None, message: str, capsys
+) -> None:
+    vehicle = {"type": "rover"} if connection is None else {"connection": connection}
+    mission = write_mission(tmp_path, SMALL, [vehicle])
+    assert main(["run", str(mission), "--quiet", *extra]) == 2
+    assert message in capsys.readouterr().err

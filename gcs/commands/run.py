@@ -34,6 +34,7 @@ from gcs.mission_log import MissionLog, NullLog
 from gcs.preflight import check_range
 from gcs.report import print_summary
 from gcs.result import RunResult
+from sitl_mock.connection import ConnectionStringError, mirror
 from vehicles.endpoints import parse_endpoint
 from vehicles.errors import EndpointError
 from vehicles.keyfile import KeyFile, KeyFileError, load_key_file, loose_permissions
@@ -218,6 +219,12 @@ def options_from(args: argparse.Namespace, mission: Mission) -> LiveOptions:
     if args.sim_latency < 0 or args.sim_jitter < 0:
         raise UsageError("--sim-latency and --sim-jitter must not be negative")
     sysids = {v.sysid for v in mission.fleet}
+    if args.sim:
+        for v in mission.fleet:
+            try:
+                mirror(v.connection)  # the mock takes the other side of every connection
+            except ConnectionStringError as exc:
+                raise UsageError(f"--sim: vehicle {v.sysid}: {exc}") from None
     cuts = []
     for text in args.sim_cut:
         sysid, at, duration = _numbers(text, 3, "--sim-cut")
