@@ -96,7 +96,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
             "Move a mission between a file and one vehicle with the MAVLink mission protocol. "
             f"The file format follows its extension ({formats}). ENDPOINT is a connection "
             "string: udpin:HOST:PORT (listen), udpout:HOST:PORT, tcp:HOST:PORT (e.g. "
-            "ArduPilot SITL on tcp:127.0.0.1:5760) or tcpin:HOST:PORT."
+            "ArduPilot SITL on tcp:127.0.0.1:5760), tcpin:HOST:PORT, or a serial radio "
+            "(serial:/dev/ttyUSB0:57600, /dev/ttyUSB0,57600); when it carries several "
+            "vehicles, --sysid picks one."
         ),
     )
     actions = p.add_subparsers(dest="action", metavar="ACTION", required=True)
@@ -113,7 +115,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
             "--sysid",
             type=int,
             metavar="N",
-            help="MAVLink system id of the vehicle (default: the first one heard)",
+            help="MAVLink system id of the vehicle, on a link that carries several (default: "
+            "the first one heard)",
         )
         a.add_argument(
             "--timeout",
