@@ -16,7 +16,8 @@ import select
 import threading
 import tty
 from pathlib import Path
-from types import TracebackType
+
+from tests.relay import Relay
 
 
 class _End:
@@ -37,31 +38,19 @@ class _End:
                 os.close(fd)
 
 
-class SerialCable:
+class SerialCable(Relay):
     def __init__(self, folder: Path) -> None:
+        super().__init__("serial-cable")
         self.vehicle_end = folder / "vehicle-radio"
         self.station_end = folder / "station-radio"
         self._lock = threading.Lock()
         self._vehicle = _End(self.vehicle_end)
         self._station: _End | None = _End(self.station_end)
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._copy, name="serial-cable", daemon=True)
         #: Bytes carried each way.
         self.to_station = 0
         self.to_vehicle = 0
 
-    def __enter__(self) -> SerialCable:
-        self._thread.start()
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self._stop.set()
-        self._thread.join(timeout=5)
+    def close(self) -> None:
         with self._lock:
             self._vehicle.close()
             if self._station is not None:
@@ -78,28 +67,27 @@ class SerialCable:
             if self._station is None:
                 self._station = _End(self.station_end)
 
-    def _copy(self) -> None:
-        while not self._stop.is_set():
-            with self._lock:
-                station = self._station
-                fds = [self._vehicle.master] + ([station.master] if station else [])
-            try:
-                readable, _, _ = select.select(fds, [], [], 0.05)
-            except (OSError, ValueError):
-                continue  # an end was closed meanwhile
-            with self._lock:
-                for fd in readable:
-                    if station is not self._station:
-                        break  # unplugged meanwhile
-                    try:
-                        data = os.read(fd, 65536)
-                    except OSError:
-                        continue  # nobody on the far side of that terminal yet
-                    if fd == self._vehicle.master:
-                        if station is not None:
-                            self.to_station += _write(station.master, data)
-                    else:
-                        self.to_vehicle += _write(self._vehicle.master, data)
+    def relay_once(self) -> None:
+        with self._lock:
+            station = self._station
+            fds = [self._vehicle.master] + ([station.master] if station else [])
+        try:
+            readable, _, _ = select.select(fds, [], [], self.wait_s)
+        except (OSError, ValueError):
+            return  # an end was closed meanwhile
+        with self._lock:
+            for fd in readable:
+                if station is not self._station:
+                    break  # unplugged meanwhile
+                try:
+                    data = os.read(fd, 65536)
+                except OSError:
+                    continue  # nobody on the far side of that terminal yet
+                if fd == self._vehicle.master:
+                    if station is not None:
+                        self.to_station += _write(station.master, data)
+                else:
+                    self.to_vehicle += _write(self._vehicle.master, data)
 
 
 def _write(fd: int, data: bytes) -> int:

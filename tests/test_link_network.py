@@ -289,3 +289,29 @@ async def test_one_connection_carries_one_signing_key() -> None:
         with pytest.raises(LinkError, match="has a link already"):
             await network.link(connection, 1, signing=SigningConfig(bytes(range(32))))
         assert len(network.connections) == 1
+
+
+async def test_a_vehicle_heard_on_another_connection_is_answered_there(tmp_path: Path) -> None:
+    """The table of who is where: vehicle 1 named on one port and then heard on a second
+    (its radio swapped for another) gets what the station sends on the second; the move
+    is told once."""
+    mission = _mission(tmp_path, 1)
+    first_port, second_port = free_loopback_udp_ports(2)
+    notices: list[str] = []
+    async with (
+        asyncio.timeout(BODY_S),
+        MavlinkNetwork(SETTINGS, on_notice=notices.append) as network,
+    ):
+        second = await network.open(f"udpin:127.0.0.1:{second_port}", None)
+        link = await network.link(f"udpin:127.0.0.1:{first_port}", 1)
+        async with _fleets(mission, _configs(mission, f"udpout:127.0.0.1:{first_port}")):
+            await link.wait_heartbeat(10)
+            assert network.where(1) is not second
+        async with _fleets(mission, _configs(mission, f"udpout:127.0.0.1:{second_port}")) as (
+            fleet,
+        ):
+            await link.wait_for(Topic.STATUS, lambda _s: network.where(1) is second, 5)
+            await link.set_mode(FlightMode.GUIDED)
+            assert fleet.vehicles[1].mode == RoverMode.GUIDED
+        moved = [n for n in notices if "too" in n]
+        assert len(moved) == 1 and f"udpin:127.0.0.1:{second_port}" in moved[0], notices

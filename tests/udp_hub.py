@@ -10,21 +10,20 @@ from __future__ import annotations
 
 import select
 import socket
-import threading
-from types import TracebackType
+
+from tests.relay import Relay
 
 Address = tuple[str, int]
 
 
-class UdpHub:
+class UdpHub(Relay):
     def __init__(self, vehicles: int, station: Address) -> None:
+        super().__init__("udp-hub")
         self.station = station
         self._vehicle_sockets = [_bound() for _ in range(vehicles)]
         self._station_socket = _bound()
         #: Where each vehicle socket last heard its vehicle from.
         self._vehicles: dict[socket.socket, Address] = {}
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._relay, name="udp-hub", daemon=True)
         self.to_station = 0
         self.to_vehicles = 0
 
@@ -32,36 +31,24 @@ class UdpHub:
     def vehicle_ports(self) -> list[int]:
         return [s.getsockname()[1] for s in self._vehicle_sockets]
 
-    def __enter__(self) -> UdpHub:
-        self._thread.start()
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self._stop.set()
-        self._thread.join(timeout=5)
+    def close(self) -> None:
         for s in (*self._vehicle_sockets, self._station_socket):
             s.close()
 
-    def _relay(self) -> None:
+    def relay_once(self) -> None:
         sockets = [*self._vehicle_sockets, self._station_socket]
-        while not self._stop.is_set():
-            readable, _, _ = select.select(sockets, [], [], 0.05)
-            for s in readable:
-                try:
-                    data, sender = s.recvfrom(65536)
-                except OSError:
-                    continue
-                if s is self._station_socket:
-                    for vehicle_socket, vehicle in list(self._vehicles.items()):
-                        self.to_vehicles += _send(vehicle_socket, data, vehicle)
-                else:
-                    self._vehicles[s] = sender
-                    self.to_station += _send(self._station_socket, data, self.station)
+        readable, _, _ = select.select(sockets, [], [], self.wait_s)
+        for s in readable:
+            try:
+                data, sender = s.recvfrom(65536)
+            except OSError:
+                continue
+            if s is self._station_socket:
+                for vehicle_socket, vehicle in list(self._vehicles.items()):
+                    self.to_vehicles += _send(vehicle_socket, data, vehicle)
+            else:
+                self._vehicles[s] = sender
+                self.to_station += _send(self._station_socket, data, self.station)
 
 
 def _bound() -> socket.socket:

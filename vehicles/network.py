@@ -72,6 +72,8 @@ class Connection:
     endpoint: Endpoint
     transport: MavlinkTransport
     signing: SigningConfig | None
+    #: The systems of the network's links heard on this connection.
+    systems: set[int] = field(default_factory=set)
     #: Frames of systems no link is for.
     stranger_frames: int = 0
     strangers: set[int] = field(default_factory=set)
@@ -356,6 +358,13 @@ class MavlinkNetwork:
             self._stranger(connection, msg)
             return
         self._where[system] = connection
+        if system not in connection.systems:
+            connection.systems.add(system)
+            if connection is not port.home:
+                self._notice(
+                    f"system {system} heard on {connection.endpoint} too: what the station "
+                    "sends it goes where it was heard last"
+                )
         if getattr(msg, "target_system", 0) in (0, self.settings.own_system):
             port.deliver(msg)  # not what a vehicle says to another station (a --forward one)
 
