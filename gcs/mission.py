@@ -186,6 +186,12 @@ class Mission:
         return dataclasses.replace(self, fleet=kept + added)
 
 
+def on_one_link(mission: Mission, connection: str) -> Mission:
+    """The mission with every vehicle on ``connection`` (``gcs run --one-link``)."""
+    fleet = tuple(dataclasses.replace(v, connection=connection) for v in mission.fleet)
+    return dataclasses.replace(mission, fleet=fleet)
+
+
 def default_connection(sysid: int) -> str:
     """The loopback connection of a vehicle that does not name one (see the module doc)."""
     return f"udpin:127.0.0.1:{CONNECTION_BASE_PORT + CONNECTION_PORT_STEP * (sysid - 1)}"

@@ -278,34 +278,22 @@ class _Watcher:
 def test_a_forwarded_station_watches_every_vehicle_and_cannot_command(tmp_path: Path) -> None:
     """``--forward`` copies the fleet's traffic to a second station (pymavlink): it sees
     each vehicle's heartbeat and position; without ``--forward-commands`` the commands
-    it sends are dropped (counted, never acknowledged by a vehicle)."""
-    (port,) = free_loopback_udp_ports(1)
+    it sends are dropped (counted, never acknowledged by a vehicle). The fleet is on
+    one port given on the command line (``--one-link``), its mock behind one radio."""
+    port, fleet_port = free_loopback_udp_ports(2)
     vehicles = [{"type": "rover"}, {"type": "copter"}, {"type": "rover"}]
     mission = write_mission(tmp_path, SMALL, vehicles)
+    run = ["run", str(mission), "--sim", "--speedup", "40", "--time-limit", "900"]
+    links = ["--one-link", f"udpin:127.0.0.1:{fleet_port}", "--forward", f"udpout:127.0.0.1:{port}"]
     with (
         _Watcher(port) as watcher,
-        _running(
-            _python(
-                "-m",
-                "gcs.cli",
-                "run",
-                str(mission),
-                "--sim",
-                "--speedup",
-                "40",
-                "--time-limit",
-                "900",
-                "--forward",
-                f"udpout:127.0.0.1:{port}",
-                "--out",
-                str(tmp_path / "out"),
-            )
-        ) as gcs,
+        _running(_python("-m", "gcs.cli", *run, *links, "--out", str(tmp_path / "out"))) as gcs,
     ):
         output = _finish(gcs, [])
     assert gcs.returncode == 0, output
     got = report(tmp_path / "out")
     assert got["complete"] and got["lost_agents"] == 0, got
+    assert "not in the mission" not in output  # the one link carries the fleet alone
     assert watcher.heartbeats == {1, 2, 3}
     assert watcher.positions == {1, 2, 3}
     assert watcher.commands_sent > 0

@@ -29,7 +29,7 @@ from gcs.live.mission import LiveOptions, MissionRefused, SimFaults, run_live
 from gcs.live.resume import ResumeError, load_resume_point
 from gcs.live.shared import Level
 from gcs.mcap_log import SCHEMAS, McapMissionLog
-from gcs.mission import Mission
+from gcs.mission import Mission, on_one_link
 from gcs.mission_log import MissionLog, NullLog
 from gcs.preflight import check_range
 from gcs.report import print_summary
@@ -96,6 +96,13 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "address (a router restarted); by default the station stays with the address the "
         "vehicle first spoke from and ignores, counts and shows frames that claim to be it "
         "from elsewhere (an impostor; signing with --keys is the real protection)",
+    )
+    p.add_argument(
+        "--one-link",
+        metavar="CONNECTION",
+        help="reach the whole fleet through this one connection instead of each vehicle's "
+        "own (one radio or router for all: e.g. serial:/dev/ttyUSB0:57600 or "
+        "udpin:127.0.0.1:14550); vehicles are told apart by system id",
     )
     p.add_argument(
         "--forward",
@@ -322,6 +329,8 @@ def open_live(port: int) -> LiveView:
 
 def run(args: argparse.Namespace) -> int:
     mission = load(args)
+    if args.one_link is not None:
+        mission = on_one_link(mission, args.one_link)
     options = options_from(args, mission)
     if not logging.getLogger().handlers:
         # Library warnings (link lost...) reach the operator through the display instead.
