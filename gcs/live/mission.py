@@ -61,9 +61,11 @@ from sitl_mock.faults import LinkCut, LinkFaults, VehicleFaults
 from sitl_mock.fleet import MockFleet, MockVehicleConfig
 from vehicles.clock import Clock, ScaledClock
 from vehicles.commands import CommandSettings
+from vehicles.endpoints import EndpointKind, parse_endpoint
 from vehicles.errors import LinkError
 from vehicles.keyfile import KeyFile
 from vehicles.link import LinkSettings, RejectedFrames, VehicleLink, rejected_frames
+from vehicles.link_budget import fit_rates
 from vehicles.mission_protocol import MissionSettings
 from vehicles.modes import FlightMode, VehicleKind
 from vehicles.network import MavlinkNetwork
@@ -312,9 +314,18 @@ async def run_live(
             )
             for spec in mission.fleet
         }
+        rates = telemetry_rates(mission, options, notice)
         await asyncio.gather(
             *(
-                _ready(spec, links[spec.sysid], pilots[spec.sysid], mission, options, views)
+                _ready(
+                    spec,
+                    links[spec.sysid],
+                    pilots[spec.sysid],
+                    mission,
+                    options,
+                    views,
+                    rates[spec.sysid],
+                )
                 for spec in mission.fleet
             )
         )
@@ -325,6 +336,29 @@ async def run_live(
         await network.close()
         if fleet is not None:
             await fleet.stop()
+
+
+def telemetry_rates(
+    mission: Mission, options: LiveOptions, notice: Callable[[str], None]
+) -> dict[int, dict[int, float]]:
+    """The rates each vehicle is asked for: ``RATES_HZ``, scaled down on a serial radio
+    that the fleet sharing it would fill (the operator is told)."""
+    rates = {spec.sysid: RATES_HZ for spec in mission.fleet}
+    sharing: dict[str, list[int]] = {}
+    for spec in mission.fleet:
+        sharing.setdefault(spec.connection, []).append(spec.sysid)
+    for connection, sysids in sharing.items():
+        endpoint = parse_endpoint(connection, allow_remote=True)
+        if endpoint.kind is not EndpointKind.SERIAL:
+            continue
+        signed = options.keys is not None and any(options.keys.signing(s) for s in sysids)
+        fitted, budget = fit_rates(
+            RATES_HZ, baud=endpoint.baud, vehicles=len(sysids), signed=signed
+        )
+        if budget.factor < 1.0:
+            notice(f"{endpoint}: {len(sysids)} vehicle(s) on one radio: {budget}")
+            rates.update(dict.fromkeys(sysids, fitted))
+    return rates
 
 
 def _dials(connection: str) -> bool:
@@ -370,6 +404,7 @@ async def _ready(
     mission: Mission,
     options: LiveOptions,
     views: dict[int, VehicleView],
+    rates_hz: dict[int, float],
 ) -> None:
     """Check one vehicle before the start; raise ``MissionRefused`` saying what is wrong.
     The wait after the heartbeat is bounded by ``ready_timeout_s`` as a whole, and the
@@ -396,7 +431,7 @@ async def _ready(
         )
     try:
         async with asyncio.timeout(max(pilot.real_s(options.ready_timeout_s), READY_MIN_REAL_S)):
-            await _get_ready(spec, link, pilot, mission, options, view)
+            await _get_ready(spec, link, pilot, mission, options, view, rates_hz)
     except TimeoutError:
         raise MissionRefused(
             f"{who}: not ready after {options.ready_timeout_s:g} s: still waiting for "
@@ -414,10 +449,11 @@ async def _get_ready(
     mission: Mission,
     options: LiveOptions,
     view: VehicleView,
+    rates_hz: dict[int, float],
 ) -> None:
     who = f"vehicle {spec.sysid} ({spec.connection})"
     view.detail = "telemetry rates"
-    await link.request_rates(RATES_HZ)
+    await link.request_rates(rates_hz)
     wait_s = pilot.real_s(options.telemetry_timeout_s)
     view.detail = "position and battery telemetry"
     try:
