@@ -213,13 +213,19 @@ class VehicleEndpoint:
         except Exception as exc:  # pymavlink raises a few things; never let them out
             log.debug("vehicle %d: unparsable data: %s", self.vehicle.id, exc)
             self.bad_frames += 1
-            _reset_parser(codec)
+            reset_parser(codec)
             return []
         good = [msg for msg in messages if self._count_in(msg)]
         if whole_frames and codec.buf_len() > 0:
             self.bad_frames += 1
-            _reset_parser(codec)
+            reset_parser(codec)
         return good
+
+    def overheard(self, message_type: str, target_system: int) -> None:
+        """A frame for another vehicle behind the same radio (``sitl_mock.radio``)."""
+        if not self.silent:
+            self.heard[message_type, target_system] += 1
+            self.foreign_frames += 1
 
     def _count_in(self, msg: Message) -> bool:
         """Count a parsed message; true if it is a good one for this vehicle."""
@@ -434,7 +440,7 @@ def _refusal_severity(text: str) -> Severity:
     return Severity.CRITICAL if text.startswith(("PreArm", "Arm:")) else Severity.WARNING
 
 
-def _reset_parser(codec: mavlink.MAVLink) -> None:
+def reset_parser(codec: mavlink.MAVLink) -> None:
     """Drop whatever partial frame the parser holds (pymavlink has no call for it)."""
     codec.buf = bytearray()
     codec.buf_index = 0

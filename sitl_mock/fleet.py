@@ -30,7 +30,8 @@ from sitl_mock.connection import LinkKind
 from sitl_mock.endpoint import LinkSettings, VehicleEndpoint
 from sitl_mock.faults import VehicleFaults
 from sitl_mock.gridmap import GridMap
-from sitl_mock.transport import Fanout, Transport, make_transport
+from sitl_mock.radio import Radio
+from sitl_mock.transport import Transport, make_transport
 from sitl_mock.vehicle import Vehicle, VehicleSettings
 from sitl_mock.world import World
 from vehicles.clock import Clock, ScaledClock
@@ -107,7 +108,9 @@ class MockFleet:
         for ids in sharing.values():
             if len(ids) > 1:
                 first = self.endpoints[ids[0]]
-                transport = make_transport(first.endpoint, Fanout([self.endpoints[i] for i in ids]))
+                transport = make_transport(
+                    first.endpoint, Radio({i: self.endpoints[i] for i in ids})
+                )
                 self._shared.update(dict.fromkeys(ids, transport))
         self._physics: asyncio.Task[None] | None = None
         self._started: list[VehicleEndpoint | Transport] = []

@@ -2,16 +2,14 @@
 
 A transport turns a socket or device into ``Peer`` objects (a far end one can
 write to) and reports bytes received from each to a ``PeerListener``. It knows
-nothing of MAVLink. ``close`` closes every socket it opened. A ``Fanout`` lets
-several vehicles share one transport, as a fleet behind one radio or router:
-each hears everything and answers through the same far end.
+nothing of MAVLink. ``close`` closes every socket it opened (``sitl_mock.radio``
+puts several vehicles behind one).
 """
 
 from __future__ import annotations
 
 import asyncio
 import logging
-from collections.abc import Sequence
 from typing import Protocol
 
 from sitl_mock.connection import Endpoint, LinkKind
@@ -219,26 +217,6 @@ class _SerialTransport:
     async def close(self) -> None:
         await self._port.close()
         self._listener.peer_closed(self._peer)
-
-
-class Fanout:
-    """A ``PeerListener`` that passes every event on to several: the vehicles behind
-    one radio or router, each hearing all that comes and answering the same peer."""
-
-    def __init__(self, listeners: Sequence[PeerListener]) -> None:
-        self.listeners = list(listeners)
-
-    def peer_opened(self, peer: Peer) -> None:
-        for listener in self.listeners:
-            listener.peer_opened(peer)
-
-    def peer_received(self, peer: Peer, data: bytes) -> None:
-        for listener in self.listeners:
-            listener.peer_received(peer, data)
-
-    def peer_closed(self, peer: Peer) -> None:
-        for listener in self.listeners:
-            listener.peer_closed(peer)
 
 
 def make_transport(endpoint: Endpoint, listener: PeerListener) -> Transport:
