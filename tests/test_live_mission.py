@@ -345,8 +345,8 @@ DEMO_MISSION_LIMIT_S = 12000
 #: 60x kept one core busy (CPU 0.98 s/s); the planner, starved, took 15-21 s of a 26-39 s
 #: run, each move waited about 10 mission seconds, the copters hovered their batteries
 #: away and came home twice as often (1092-1224 m against 822-849 m at 20x, which also
-#: ended sooner: 22-28 s). One vehicle at 120x: CPU 0.60 s/s, 815 m (817 m at 60x).
-DEMO_SPEEDUP = {1: 120, 3: 30, 5: 20}
+#: ended sooner: 22-28 s).
+DEMO_SPEEDUP = {3: 30, 5: 20}
 
 
 def one_port_demo(folder: Path, connection: str | None = None) -> Path:
@@ -362,7 +362,7 @@ def one_port_demo(folder: Path, connection: str | None = None) -> Path:
 
 
 @pytest.mark.timeout(240)
-@pytest.mark.parametrize("agents", [1, 3, 5])
+@pytest.mark.parametrize("agents", [3, 5])
 def test_demo_fleet_is_no_longer_than_the_plan(tmp_path: Path, agents: int) -> None:
     """On the demo's scenario-like map (593 cells, charging trips, rovers and copters),
     a fleet deciding at its own pace flies no more than 15 % beyond the lockstep plan.
@@ -376,7 +376,9 @@ def test_demo_fleet_is_no_longer_than_the_plan(tmp_path: Path, agents: int) -> N
     not allow them to finish, and each came home for one more charge. A fleet is
     therefore flown a second time when its first run is longer than 15 %; the better
     run is held to it. The whole fleet shares one UDP port (as behind one radio), so the
-    five-vehicle run is also the demo on one port."""
+    five-vehicle run is also the demo on one port. One vehicle alone (0.88 of its plan)
+    is not flown here: at 32 s it was the suite's second slowest test, and a lone
+    vehicle's live mission is checked by the smaller missions above."""
     demo = one_port_demo(tmp_path)
     planned_out = tmp_path / "plan"
     assert (
@@ -408,7 +410,7 @@ def test_demo_fleet_is_no_longer_than_the_plan(tmp_path: Path, agents: int) -> N
         return float(got["total_path_m"])
 
     flown = [fly(tmp_path / "live")]
-    if agents > 1 and flown[0] > 1.15 * planned:
+    if flown[0] > 1.15 * planned:
         flown.append(fly(tmp_path / "again"))
     assert min(flown) <= 1.15 * planned, (flown, planned)
 
