@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from gcs.live.mission import RATES_HZ
+from gcs.live.mission import RATES_HZ, LiveOptions, telemetry_rates
+from gcs.mission import load_mission
 from vehicles.link_budget import (
     MIN_RATE_HZ,
     TELEMETRY_SHARE,
@@ -60,3 +63,22 @@ def test_fitted_rates_never_rise_and_never_stop_a_stream(
 def test_the_budget_grows_with_the_fleet(vehicles: int) -> None:
     _, budget = fit_rates(RATES_HZ, baud=57600, vehicles=vehicles)
     assert budget.needed_bytes_s == pytest.approx(vehicles * bytes_per_s(RATES_HZ))
+
+
+def test_the_fleet_on_one_radio_is_counted_however_the_device_is_spelt(tmp_path: Path) -> None:
+    (tmp_path / "m.txt").write_text("C....\n.....\n")
+    spellings = ["serial:/dev/ttyUSB0:57600", "/dev/ttyUSB0,57600", "serial:///dev/ttyUSB0:57600"]
+    vehicles = [{"connection": spellings[i % 3]} for i in range(5)]
+    vehicles.append({"connection": "udpin:127.0.0.1:14550"})
+    text = "map: m.txt\nfleet:\n  vehicles:\n" + "".join(
+        f"    - {{connection: '{v['connection']}'}}\n" for v in vehicles
+    )
+    (tmp_path / "m.yaml").write_text(text)
+    notices: list[str] = []
+    rates = telemetry_rates(load_mission(tmp_path / "m.yaml"), LiveOptions(), notices.append)
+    assert notices == [
+        "serial:/dev/ttyUSB0:57600: 5 vehicle(s) on one radio: telemetry rates at 76 % of "
+        "the usual to fit the radio (2.9 kB/s of 5.8)"
+    ]
+    assert all(rates[sysid] != RATES_HZ for sysid in range(1, 6))
+    assert rates[6] == RATES_HZ  # the UDP vehicle keeps its rates

@@ -61,7 +61,7 @@ from sitl_mock.faults import LinkCut, LinkFaults, VehicleFaults
 from sitl_mock.fleet import MockFleet, MockVehicleConfig
 from vehicles.clock import Clock, ScaledClock
 from vehicles.commands import CommandSettings
-from vehicles.endpoints import EndpointKind, parse_endpoint
+from vehicles.endpoints import Endpoint, EndpointKind, parse_endpoint
 from vehicles.errors import LinkError
 from vehicles.keyfile import KeyFile
 from vehicles.link import LinkSettings, RejectedFrames, VehicleLink, rejected_frames
@@ -344,11 +344,11 @@ def telemetry_rates(
     """The rates each vehicle is asked for: ``RATES_HZ``, scaled down on a serial radio
     that the fleet sharing it would fill (the operator is told)."""
     rates = {spec.sysid: RATES_HZ for spec in mission.fleet}
-    sharing: dict[str, list[int]] = {}
-    for spec in mission.fleet:
-        sharing.setdefault(spec.connection, []).append(spec.sysid)
-    for connection, sysids in sharing.items():
-        endpoint = parse_endpoint(connection, allow_remote=True)
+    sharing: dict[Endpoint, list[int]] = {}
+    for spec in mission.fleet:  # one device however it is spelt
+        endpoint = parse_endpoint(spec.connection, allow_remote=True)
+        sharing.setdefault(endpoint, []).append(spec.sysid)
+    for endpoint, sysids in sharing.items():
         if endpoint.kind is not EndpointKind.SERIAL:
             continue
         signed = options.keys is not None and any(options.keys.signing(s) for s in sysids)
