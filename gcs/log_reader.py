@@ -12,15 +12,12 @@ from __future__ import annotations
 
 import itertools
 import json
-import struct
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import zstandard
-from mcap.exceptions import McapError
 from mcap.records import Channel, Chunk, Footer, Message, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import MCAP0_MAGIC
@@ -96,16 +93,19 @@ def _records(path: Path) -> Iterator[Schema | Channel | Message | Footer]:
         if handle.read(len(MCAP0_MAGIC)) != MCAP0_MAGIC:
             raise LogError(f"{path}: not an MCAP file")
         handle.seek(0)
-        reader = StreamReader(
-            handle, emit_chunks=True, record_size_limit=1 << 30, validate_crcs=True
-        )
+        # No record is longer than the file: a damaged length field must not make the
+        # reader try to allocate gigabytes.
+        size = path.stat().st_size
+        reader = StreamReader(handle, emit_chunks=True, record_size_limit=size, validate_crcs=True)
         try:
             for record in reader.records:
                 if isinstance(record, Chunk):
                     yield from breakup_chunk(record)  # type: ignore[misc]
                 elif isinstance(record, Schema | Channel | Message | Footer):
                     yield record
-        except (McapError, struct.error, EOFError, ValueError, zstandard.ZstdError) as exc:
+        # Whatever the MCAP library raises on damaged bytes (its own errors, struct, zstd,
+        # overflows and allocations from a damaged length) means the file ends there.
+        except Exception as exc:
             raise EOFError(str(exc)) from exc
 
 
@@ -127,7 +127,10 @@ def read_contents(path: Path | str) -> LogContents:
             elif isinstance(record, Footer):
                 contents.truncated = False
             elif record.channel_id in channels:
-                _take(contents, channels[record.channel_id], record)
+                try:
+                    _take(contents, channels[record.channel_id], record)
+                except (KeyError, TypeError, ValueError, IndexError, AttributeError):
+                    continue  # a message damaged inside its JSON: skipped, never believed
     except EOFError:
         contents.truncated = True
     except OSError as exc:
