@@ -41,8 +41,11 @@ PROCESS_S = 200.0
 _MISSION_LINE = re.compile(r"^\[\d+:\d\d\] vehicle \d+ ")
 
 
-def _python(*args: str, **kwargs: Any) -> subprocess.Popen[str]:
+def _python(*args: str, home: Path | None = None, **kwargs: Any) -> subprocess.Popen[str]:
+    """``python ARGS`` with its output unbuffered and wide; ``home``: its $HOME."""
     env = {**os.environ, "PYTHONUNBUFFERED": "1", "COLUMNS": "200"}
+    if home is not None:
+        env["HOME"] = str(home)
     return subprocess.Popen(
         [sys.executable, *args],
         stdin=subprocess.DEVNULL,
@@ -199,25 +202,13 @@ def test_a_mission_through_mavproxy_as_a_router(tmp_path: Path) -> None:
     ]
     with (
         _running(_mock(vehicles, ROUTED_SPEEDUP)),
-        _running(_router(router, home)),
+        _running(_python(*router, home=home, cwd=home)),
         _running(_station(station, tmp_path / "out")) as gcs,
     ):
         output = _finish(gcs, [])
     assert gcs.returncode == 0, output
     got = report(tmp_path / "out")
     assert got["complete"] and got["lost_agents"] == 0, got
-
-
-def _router(command: list[str], home: Path) -> subprocess.Popen[str]:
-    return subprocess.Popen(
-        [sys.executable, *command],
-        stdin=subprocess.DEVNULL,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        cwd=home,
-        env={**os.environ, "HOME": str(home)},
-    )
 
 
 class _Watcher:
