@@ -267,7 +267,7 @@ def test_cut_link_vehicle_is_lost_and_others_finish(tmp_path: Path) -> None:
     short of 100 %."""
     mission = write_mission(tmp_path, MID, [{"type": "rover"}] * 3)
     out = tmp_path / "live"
-    code = run_sim(mission, out, "--sim-cut", "2:20:1000", "--lost-after", "15")
+    code = run_sim(mission, out, "--sim-cut", "2:40:1000", "--lost-after", "15")
     got = report(out)
     assert code == 1, got  # a vehicle was lost
     assert [a["id"] for a in got["agents"] if a["lost"]] == [2]
