@@ -1,19 +1,7 @@
 """``gcs bench faults``: the fault campaign, one live mission per fault.
 
-Every row runs the real ``gcs run --sim`` in a child process (seeded, stopped
-after ``--case-limit`` wall seconds) with one fault injected into the mock
-fleet, then reads what it left: the report (coverage, vehicles lost, the
-lowest battery any vehicle reported on arrival against the reserve) and the
-MCAP log (does it rebuild the same report?). The last row kills the ground
-station with SIGKILL mid-mission: the mock fleet then runs in a process of
-its own with its GCS failsafe set to hold, and a second ground station
-resumes from the first one's log (``gcs run --resume``); the row says how
-much mission time the log had lost at the kill.
-
-A fault that takes a vehicle away for good (a cut longer than the lost-vehicle
-timeout, a vehicle dying) must end with that vehicle declared lost and the
-others covering its share: such rows expect one vehicle lost (exit status 1
-is then the right answer) and say so.
+What it measures, as the operator reads it: ``gcs bench faults --help``
+(``gcs.options.bench``).
 """
 
 from __future__ import annotations
@@ -36,21 +24,16 @@ import yaml
 from rich.console import Console
 from rich.table import Table
 
-from gcs.bench_cli import json_path, write_json
+from gcs.bench_cli import write_json
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.log_reader import LogError, read_contents, read_log
 from gcs.mission import MissionError, load_mission
+from gcs.options.bench import LONG_CUT_S, SHORT_CUT_S, STRIKE_S
+from gcs.options.run import LOST_AFTER_S
 from gcs.report import report_dict
 from vehicles.endpoints import free_loopback_udp_ports
 
-DEMO = Path(__file__).resolve().parent.parent / "missions" / "demo.yaml"
-#: Mission seconds into the run at which timed faults strike (by default).
-STRIKE_S = 60.0
-#: The lost-vehicle timeout of every run (mission seconds), and the cuts around it.
-LOST_AFTER_S = 30.0
-SHORT_CUT_S = 8.0
-LONG_CUT_S = 3 * LOST_AFTER_S
 #: Each sudden battery sag of the battery row (percent).
 SAG_PCT = 15.0
 #: Real seconds the first ground station of the SIGKILL row runs before the kill.
@@ -100,41 +83,6 @@ def fault_cases(victim: int, strike_s: float = STRIKE_S) -> list[FaultCase]:
         ),
         FaultCase("GCS killed (SIGKILL), resumed", kill=True),
     ]
-
-
-def register_faults(which: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = which.add_parser(
-        "faults",
-        help="the fault campaign: loss, latency, cuts, a vehicle dying, battery, GCS killed",
-        description=__doc__.split("\n\n", 1)[1] if __doc__ else None,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    p.add_argument(
-        "--mission", type=Path, default=DEMO, help="the mission (default missions/demo.yaml)"
-    )
-    p.add_argument("--seed", type=int, default=1, help="seed of the faults and the planner")
-    p.add_argument(
-        "--strike",
-        type=float,
-        default=STRIKE_S,
-        metavar="S",
-        help=f"mission seconds at which cuts and the death strike (default {STRIKE_S:g})",
-    )
-    p.add_argument(
-        "--speedup", type=float, default=10.0, help="the mock fleet's speed-up (default 10)"
-    )
-    p.add_argument(
-        "--case-limit",
-        type=float,
-        default=300.0,
-        metavar="S",
-        help="stop a row after S wall seconds (default 300)",
-    )
-    p.add_argument(
-        "--only", metavar="N,...", help="run only these rows (1-based numbers of the table)"
-    )
-    p.add_argument("--json", type=json_path, help="also write the table to this JSON file")
-    p.set_defaults(func=run_faults)
 
 
 # -- one row -----------------------------------------------------------------------------

@@ -1,26 +1,8 @@
-"""``gcs bench mavlink``: how fast our link and our mock move missions, how many vehicles one
-mock process keeps up with.
+"""``gcs bench mavlink``: how fast our link and our mock move missions, and how many
+vehicles one mock process keeps up with.
 
-Two measurements, both over real MAVLink 2 on loopback:
-
-1. Mission transfer: our ``VehicleLink`` uploads a mission of ``--items`` items to one
-   mock vehicle and downloads it again, once per ``--loss`` figure (percent of packets
-   dropped in each direction by the mock's ``LinkFaults``). It reports the time and what
-   the loss cost in repeats, counted on the wire by a transport tap: items the link sent
-   again, requests the vehicle repeated, requests the link repeated during the download.
-   Loss makes the protocol's timers decide the time, so they are part of the figures:
-   ``--timers loopback`` (default) uses timers fit for a link with a round trip of
-   microseconds, ``--timers spec`` the MAVLink defaults and ArduPilot's 1 s re-request
-   (minutes for 500 items at 30 %).
-2. Telemetry capacity: fleets of 1, 2, 4 ... vehicles in one ``MockFleet`` (one child
-   process, speed-up 1 unless ``--speedup``, all on the mission's charging pad, every
-   default stream on) send to one UDP socket per vehicle in this process, which counts
-   the frames of each vehicle over a window. A fleet keeps up while every vehicle
-   achieves at least 90 % of its configured message rate (measured from the spacing of
-   each stream's sends) and the physics stays within ``--max-lag-ms`` of the clock (95th
-   percentile; it steps every 0.1 s and catches up by whole steps, so up to 200 ms is
-   normal). The ramp stops at the first fleet that falls behind; one fleet holds at most
-   255 vehicles (the MAVLink system ids).
+What it measures, as the operator reads it: ``gcs bench mavlink --help``
+(``gcs.options.bench``).
 """
 
 from __future__ import annotations
@@ -45,9 +27,16 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from rich.console import Console
 from rich.table import Table
 
-from gcs.bench_cli import json_path, write_json
+from gcs.bench_cli import write_json
 from gcs.errors import EXIT_OK, UsageError
 from gcs.mission import MAX_SYSID, Mission, MissionError, load_mission
+from gcs.options.bench import (
+    MAVLINK_ITEMS,
+    MAVLINK_LOSS_PCT,
+    MAVLINK_MAX_LAG_MS,
+    MAVLINK_MISSION,
+    MAVLINK_WINDOW_S,
+)
 from gcs.percentile import percentile
 from gcs.sitl_cli import mock_fleet_configs
 from sitl_mock import telemetry
@@ -60,15 +49,8 @@ from vehicles.link import LinkSettings, VehicleLink
 from vehicles.mission_items import MissionItem, same_items
 from vehicles.mission_protocol import MissionSettings
 
-DEFAULT_MISSION = Path(__file__).resolve().parents[1] / "missions" / "scenario1.yaml"
-DEFAULT_ITEMS = 500
-DEFAULT_LOSS_PCT = (0.0, 30.0)
 #: Rate a vehicle must achieve, as a share of its configured rate, to keep up.
 KEEP_UP_RATIO = 0.9
-#: The physics steps every 0.1 s and catches up by whole steps, so up to two steps
-#: (200 ms) behind the clock is its normal state; more means it is late.
-DEFAULT_MAX_LAG_MS = 300.0
-DEFAULT_WINDOW_S = 4.0
 DEFAULT_WARMUP_S = 1.0
 #: How long one transfer may take before it counts as hung.
 TRANSFER_LIMIT_S = 300.0
@@ -440,14 +422,14 @@ def _fleet_figures(
 
 async def run_mavlink_bench(
     *,
-    mission_path: Path = DEFAULT_MISSION,
-    items: int = DEFAULT_ITEMS,
-    loss_pct: Sequence[float] = DEFAULT_LOSS_PCT,
+    mission_path: Path = MAVLINK_MISSION,
+    items: int = MAVLINK_ITEMS,
+    loss_pct: Sequence[float] = MAVLINK_LOSS_PCT,
     max_vehicles: int = MAX_SYSID,
     timers: str = "loopback",
-    window_s: float = DEFAULT_WINDOW_S,
+    window_s: float = MAVLINK_WINDOW_S,
     warmup_s: float = DEFAULT_WARMUP_S,
-    max_lag_ms: float = DEFAULT_MAX_LAG_MS,
+    max_lag_ms: float = MAVLINK_MAX_LAG_MS,
     speedup: float = 1.0,
     seed: int = 0,
     progress: Callable[[str], None] | None = None,
@@ -487,48 +469,6 @@ async def run_mavlink_bench(
 
 
 # ---------------------------------------------------------------------- command line
-
-
-def register_mavlink(which: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    """Add ``gcs bench mavlink`` to the ``gcs bench`` subcommands."""
-    p = which.add_parser(
-        "mavlink",
-        help="mission upload/download over loopback with loss; vehicles one mock process serves",
-        description=__doc__.split("\n\n", 1)[1] if __doc__ else None,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    p.add_argument("--mission", type=Path, default=DEFAULT_MISSION, help="mission file (map)")
-    p.add_argument("--items", type=int, default=DEFAULT_ITEMS, help="mission items (with home)")
-    p.add_argument(
-        "--loss",
-        type=float,
-        nargs="+",
-        default=list(DEFAULT_LOSS_PCT),
-        metavar="PCT",
-        help="packet loss in percent, each way (default 0 30)",
-    )
-    p.add_argument(
-        "--max-vehicles",
-        type=int,
-        default=MAX_SYSID,
-        help=f"largest fleet of the ramp (at most {MAX_SYSID}, the MAVLink system ids)",
-    )
-    p.add_argument("--timers", choices=sorted(TIMERS), default="loopback", help="mission timers")
-    p.add_argument(
-        "--speedup",
-        type=float,
-        default=1.0,
-        help="speed-up of the fleets' clock: every stream that much faster (default 1)",
-    )
-    p.add_argument("--window", type=float, default=DEFAULT_WINDOW_S, help="seconds counted")
-    p.add_argument(
-        "--max-lag-ms",
-        type=float,
-        default=DEFAULT_MAX_LAG_MS,
-        help="physics lag (95th percentile) above which a fleet falls behind",
-    )
-    p.add_argument("--json", type=json_path, help="also write the figures as JSON to this file")
-    p.set_defaults(func=run_mavlink_command)
 
 
 def _check(args: argparse.Namespace) -> None:

@@ -1,34 +1,7 @@
 """``gcs bench perf``: how the planner and the live ground station scale.
 
-1. Offline planner: generated maps of every ``--sizes`` side with every ``--agents``
-   count: ``rooms``, a maze of rooms by recursive division (one door in every wall, so
-   the way between two rooms winds through every wall between: 7 times the Manhattan
-   distance on average at 1000 cells a side); ``building``, rooms off a grid of halls
-   like an office floor (ways near the Manhattan distance); ``open``, a field with
-   scattered obstacles.
-   The battery is set so that a round trip to the farthest cell costs two thirds of
-   the usable charge: the staying alive policy is at work at every size. Each case
-   runs in a child process of its own (its peak memory is the child's), forked once
-   the planner is compiled (so no case counts compiling), and is stopped after
-   ``--case-limit`` seconds (then reported with the coverage it reached).
-2. Live ground station: one ``gcs run --sim`` in this process (the mock fleet in the
-   same event loop) with 1, 16 and 64 vehicles on an open map sized to the fleet,
-   each vehicle on a UDP port of its own, or (``--links shared``, ``both``) the whole
-   fleet on one port as behind one radio:
-   decision latency (arrival and sensing in, the next guided target out), event-loop
-   lateness, messages read per second, CPU per vehicle. A run falls behind when its
-   event loop is more than ``LOOP_BEHIND_MS`` late at the 99th percentile.
-3. The scaling goals (1000x1000 cells with 50 agents in under 60 s and 2 GB; 64 live
-   vehicles under 20 ms decision latency at the 99th percentile), each met or not,
-   when the cases that measure them were run. The goal's maps are rooms and
-   corridors (``building``) and open ground; the maze (``rooms``) is judged against
-   the same figures as a stretch, beyond them.
-
-Before them, the machine's pace on the day (``gcs.machine_pace``): a fixed workload's
-time, printed and in the JSON, as shared machines drift by a factor of three.
-
-Figures, never pass/fail on time: the machine is shared and noisy. The exit status
-is 1 only when a case did not finish, did not cover its map or lost a vehicle.
+What it measures, as the operator reads it: ``gcs bench perf --help``
+(``gcs.options.bench``).
 """
 
 from __future__ import annotations
@@ -49,11 +22,12 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
-from gcs.bench_cli import chosen, json_path, parse_settings, positive_numbers, write_json
+from gcs.bench_cli import chosen, parse_settings, positive_numbers, write_json
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.generated_missions import GENERATORS, MAP_SEED, RESERVE_PCT, case_mission
 from gcs.machine_pace import reference_seconds
+from gcs.options.bench import LOOP_BEHIND_MS, PERF_LINKS
 from gcs.simulate import SimOptions, planner_settings, simulate
 from planner import native
 from sitl_mock import mapgen
@@ -63,8 +37,6 @@ from vehicles.endpoints import free_loopback_udp_ports
 
 #: Wall seconds between a planner case's reports of its coverage so far.
 PROGRESS_EVERY_S = 1.0
-#: Event-loop lateness (99th percentile) above which a live run fell behind.
-LOOP_BEHIND_MS = 100.0
 #: The scaling goals, judged on the figures of the cases that measure them: the
 #: planner on a map this many cells a side with this many agents, complete with
 #: none lost, under these wall seconds and peak megabytes; the live ground
@@ -76,59 +48,6 @@ GOAL_VEHICLES, GOAL_P99_MS = 64, 20.0
 #: maps (rooms and corridors, open ground): the maze, whose ways are 7 times the
 #: Manhattan distance.
 STRETCH_KINDS = frozenset({"rooms"})
-
-
-def register_perf(which: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = which.add_parser(
-        "perf",
-        help="planner scaling (map size x agents) and live ground-station load (vehicles)",
-        description=__doc__.split("\n\n", 1)[1] if __doc__ else None,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    p.add_argument(
-        "--sizes", default="100,300,1000", help="map sides in cells (default 100,300,1000)"
-    )
-    p.add_argument(
-        "--kinds",
-        default=",".join(GENERATORS),
-        help=f"map kinds (default {','.join(GENERATORS)})",
-    )
-    p.add_argument("--agents", default="1,10,50", help="fleet sizes (default 1,10,50)")
-    p.add_argument(
-        "--case-limit",
-        type=float,
-        default=600.0,
-        metavar="S",
-        help="stop a planner case after S wall seconds (default 600)",
-    )
-    p.add_argument("--vehicles", default="1,16,64", help="live fleet sizes (default 1,16,64)")
-    p.add_argument(
-        "--live-speedup",
-        type=float,
-        default=2.0,
-        metavar="X",
-        help="the mock fleet's speed-up in the live runs (default 2)",
-    )
-    p.add_argument(
-        "--set",
-        dest="changes",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="a planner setting for the planner cases, e.g. far_transit_recheck=1 (repeat for "
-        "several; default: the planner's defaults)",
-    )
-    p.add_argument(
-        "--links",
-        choices=[*LINKS, "both"],
-        default="own",
-        help="live runs with each vehicle on a UDP port of its own, the whole fleet on one "
-        "port (as behind one radio), or both side by side (default own)",
-    )
-    p.add_argument("--skip-planner", action="store_true", help="only the live runs")
-    p.add_argument("--skip-live", action="store_true", help="only the planner cases")
-    p.add_argument("--json", type=json_path, help="also write the figures to this JSON file")
-    p.set_defaults(func=run_perf)
 
 
 # -- the offline planner ---------------------------------------------------------------
@@ -281,10 +200,6 @@ def live_map(vehicles: int) -> GridMap:
     """An open map with work for every vehicle: about 25 free cells each, 150 at least."""
     side = max(14, round((25 * vehicles + 150) ** 0.5 * 1.15))
     return mapgen.open_field(side, side, MAP_SEED)
-
-
-#: How the live runs reach their vehicles: a UDP port each, or one for the fleet.
-LINKS = ("own", "shared")
 
 
 def write_live_mission(folder: Path, vehicles: int, links: str = "own") -> Path:
@@ -522,7 +437,7 @@ def run_perf(args: argparse.Namespace) -> int:
         figures["planner"] = planner_rows
         console.print(planner_table(planner_rows, settings))
     if not args.skip_live:
-        links = LINKS if args.links == "both" else (args.links,)
+        links = PERF_LINKS if args.links == "both" else (args.links,)
         for n in vehicles:
             for link in links:
                 progress.print(

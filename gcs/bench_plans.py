@@ -1,16 +1,7 @@
 """``gcs bench plans``: compare planner settings on many generated maps.
 
-Runs the planner with its default settings (or ``--base``) and with the
-settings changed by ``--set``, on every map of ``--kinds`` x ``--sizes`` x
-``--seeds`` with every fleet of ``--agents``, and prints each run's path per
-free cell and iterations, the variant's ratios to the base, whether the plan
-is the same cell for cell, and the geometric mean of the ratios per map kind,
-size and fleet and over all runs. The battery is set as in ``gcs bench perf``
-(a round trip to the farthest cell costs two thirds of the usable charge).
-
-A crowd's plan is chaotic (one different decision early changes everything
-after it), so a change is judged on the means of many maps, never on one.
-The exit status is 1 when a run failed, did not cover its map or lost a vehicle.
+What it measures, as the operator reads it: ``gcs bench plans --help``
+(``gcs.options.bench``).
 """
 
 from __future__ import annotations
@@ -19,7 +10,6 @@ import argparse
 import hashlib
 import math
 import multiprocessing
-import os
 import platform
 import signal
 import traceback
@@ -33,10 +23,8 @@ from rich.table import Table
 
 from gcs.bench_cli import (
     chosen,
-    json_path,
     parse_settings,
     positive_numbers,
-    strategy_fields,
     write_json,
 )
 from gcs.console import output_console
@@ -54,48 +42,6 @@ class PlanCase:
     size: int
     agents: int
     seed: int
-
-
-def register_plans(which: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = which.add_parser(
-        "plans",
-        help="compare planner settings (path, iterations) on many generated maps",
-        description=__doc__.split("\n\n", 1)[1] if __doc__ else None,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog=(
-            "example: gcs bench plans --sizes 100,150 --agents 20,50 --set hold_radius=8\n"
-            f"settings: {', '.join(sorted(strategy_fields()))}"
-        ),
-    )
-    p.add_argument("--kinds", default="rooms,caves,open", help="map kinds (default: all three)")
-    p.add_argument("--sizes", default="100", help="map sides in cells (default 100)")
-    p.add_argument("--agents", default="20,50", help="fleet sizes (default 20,50)")
-    p.add_argument("--seeds", default="1,2,3,4", help="map seeds (default 1,2,3,4)")
-    p.add_argument(
-        "--set",
-        dest="changes",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="a planner setting of the variant (repeat for several); none: the base alone",
-    )
-    p.add_argument(
-        "--base",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="a planner setting of the base (default: the planner's defaults)",
-    )
-    p.add_argument(
-        "--jobs",
-        type=int,
-        default=os.cpu_count() or 1,
-        help="runs at once, each in a process of its own (default: one per core)",
-    )
-    p.add_argument(
-        "--json", type=json_path, help="also write every run's figures to this JSON file"
-    )
-    p.set_defaults(func=run_plans)
 
 
 # -- the runs --------------------------------------------------------------------------

@@ -74,8 +74,7 @@ async def test_no_vehicle_exits_1(tmp_path: Path, capsys: pytest.CaptureFixture[
         (["mission", "upload", "udpin:127.0.0.1:14550", "nope.waypoints"], "nope.waypoints"),
         (["mission", "download", "udpin:127.0.0.1:14550", "out.kml"], "unknown mission file"),
         (["status", "bogus"], "expected KIND:HOST:PORT"),
-        (["status", "udpin:127.0.0.1:14550", "--signing-key", "abcd"], "bad signing key"),
-        (["status", "udpin:127.0.0.1:14550", "--require-signed"], "needs --signing-key"),
+        (["status", "udpin:127.0.0.1:14550", "--keys", "no-such-keys.yaml"], "cannot read"),
     ],
 )
 def test_bad_input_exits_2(argv: list[str], why: str, capsys: pytest.CaptureFixture[str]) -> None:

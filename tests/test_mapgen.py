@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import time
 from collections import deque
 from collections.abc import Callable
@@ -13,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gcs.commands import map as map_command
+from gcs import cli
 from sitl_mock import mapgen
 from sitl_mock.gridmap import GridMap
 from sitl_mock.maps import load_map
@@ -168,10 +167,7 @@ def test_300_by_300_is_fast(kind: str) -> None:
 
 
 def run_cli(*argv: str) -> int:
-    parser = argparse.ArgumentParser(prog="gcs")
-    map_command.register(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(list(argv))
-    return int(args.func(args))
+    return cli.main(list(argv))
 
 
 def test_cli_writes_the_generated_map(tmp_path: Path) -> None:

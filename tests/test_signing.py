@@ -482,3 +482,41 @@ async def test_gcs_ignores_unsigned_or_forged_telemetry_of_its_vehicle(tmp_path:
         assert link.telemetry.position is not None
         assert link.telemetry.position.lat_deg != pytest.approx(SPOOF_LAT_E7 / 1e7)
         assert not fleet.vehicles[1].armed
+
+
+# ---------------------------------------------------------------------- one option everywhere
+
+
+async def test_status_and_mission_sign_with_the_key_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--keys`` is the signing option of ``gcs status`` and ``gcs mission`` too: the
+    right key hears the signed vehicle and moves its mission, another key hears nothing,
+    and a file with several different keys needs ``--sysid``."""
+    mission = load_mission(write_mission(tmp_path))
+    keys_path = write_keys(tmp_path)
+    wrong = tmp_path / "wrong.yaml"
+    wrong.write_text(f'vehicles:\n  1: "{OTHER_KEY.hex()}"\n')
+    wrong.chmod(0o600)
+    several = tmp_path / "several.yaml"
+    several.write_text(f'vehicles:\n  1: "passphrase:{PASSPHRASE}"\n  2: "{KEY2_HEX}"\n')
+    several.chmod(0o600)
+    tcp_port = _free_tcp_port()
+    configs = mock_fleet_configs(mission, tcp_base_port=tcp_port, keys=load_key_file(keys_path))
+    endpoint = f"tcp:127.0.0.1:{tcp_port}"
+    waypoints = tmp_path / "got.waypoints"
+
+    async def gcs(*argv: str) -> int:
+        return await asyncio.to_thread(main, list(argv))
+
+    async with MockFleet(configs, mission.map, mission.geo, ScaledClock(SPEEDUP), seed=1):
+        assert await gcs("status", endpoint, "--keys", str(keys_path), "--timeout", "5") == 0
+        assert "GROUND_ROVER" in capsys.readouterr().out
+        assert await gcs("status", endpoint, "--keys", str(wrong), "--timeout", "1") == 1
+        assert "no heartbeat" in capsys.readouterr().err
+        assert await gcs("status", endpoint, "--keys", str(several)) == 2
+        assert "different keys for systems 1, 2" in capsys.readouterr().err
+        download = ("mission", "download", endpoint, str(waypoints), "--timeout", "5")
+        assert await gcs(*download, "--keys", str(several), "--sysid", "1") == 0
+        assert waypoints.read_text().startswith("QGC WPL 110")
+        assert await gcs(*download[:-1], "1", "--keys", str(wrong)) == 1

@@ -17,19 +17,13 @@ from pathlib import Path
 
 from rich.table import Table
 
-from gcs.bench_cli import json_path, write_json
-from gcs.bench_faults import register_faults
-from gcs.bench_mavlink import register_mavlink
-from gcs.bench_perf import register_perf
-from gcs.bench_plans import register_plans
+from gcs.bench_cli import write_json
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.mission import Mission, MissionError, load_mission
 from gcs.result import RunResult
 from gcs.simulate import SimOptions, planner_settings, simulate
 from planner.settings import BmRule, PlannerSettings, TargetPolicy
-
-MISSIONS = Path(__file__).resolve().parents[2] / "missions"
 
 #: The paper's Table 1 (scenario 1, 2068 m2): agents -> (charges per agent, s per step, iterations).
 PAPER_TABLE1 = {
@@ -69,35 +63,6 @@ STRATEGIES = (
         },
     ),
 )
-
-
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser(
-        "bench",
-        help="benchmarks: the paper's tables, MAVLink transfer, scaling",
-        description="Benchmarks that measure and print figures.",
-    )
-    which = p.add_subparsers(dest="bench", metavar="BENCH", required=True)
-    paper = which.add_parser(
-        "paper",
-        help="the paper's Table 1 (scenario1, 1-11 agents) and Table 2 (bob30, 4 agents)",
-        description=(
-            "Run scenario1 with 1, 3, 5, 7, 9 and 11 agents and bob30 with 4 agents (no "
-            "battery limit), and print our figures beside the paper's, with normalised "
-            "ratios: total path / (free - 1), makespan / ceil((free - 1) / agents), "
-            "iterations x agents / free."
-        ),
-    )
-    paper.add_argument("--missions", type=Path, default=MISSIONS, help="folder with the missions")
-    paper.add_argument(
-        "--agents", type=int, nargs="+", default=sorted(PAPER_TABLE1), help="Table 1 fleet sizes"
-    )
-    paper.add_argument("--json", type=json_path, help="also write the figures as JSON to this file")
-    paper.set_defaults(func=run_paper)
-    register_mavlink(which)
-    register_perf(which)
-    register_plans(which)
-    register_faults(which)
 
 
 def _load(path: Path) -> Mission:

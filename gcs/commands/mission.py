@@ -12,11 +12,11 @@ import argparse
 import asyncio
 import sys
 import time
-from pathlib import Path
 
 from rich.console import Console
 
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
+from gcs.keys import connection_signing, load_keys
 from vehicles.endpoints import Endpoint, parse_endpoint
 from vehicles.errors import EndpointError, LinkError
 from vehicles.link import VehicleLink
@@ -24,47 +24,12 @@ from vehicles.mission_files import FORMATS, MissionFileError, read_mission, writ
 from vehicles.mission_items import MissionItem, renumber
 from vehicles.signing import SigningConfig
 
-DEFAULT_HEARTBEAT_TIMEOUT_S = 10.0
 
-
-# -- arguments shared with ``gcs status`` ------------------------------------------------
-
-
-def add_link_arguments(p: argparse.ArgumentParser) -> None:
-    """``--allow-remote`` and the signing options."""
-    p.add_argument(
-        "--allow-remote",
-        action="store_true",
-        help="allow endpoints that are not on this machine (loopback only by default)",
-    )
-    signing = p.add_argument_group("MAVLink 2 signing")
-    key = signing.add_mutually_exclusive_group()
-    key.add_argument("--signing-key", metavar="HEX", help="32-byte secret key as 64 hex digits")
-    key.add_argument(
-        "--signing-passphrase",
-        metavar="TEXT",
-        help="derive the key from a passphrase (SHA-256, as MAVProxy's 'signing setup')",
-    )
-    signing.add_argument(
-        "--require-signed",
-        action="store_true",
-        help="drop unsigned messages from the vehicle (needs a key)",
-    )
-
-
-def signing_from_args(args: argparse.Namespace) -> SigningConfig | None:
-    try:
-        if args.signing_key:
-            return SigningConfig.from_hex(args.signing_key, require_signed=args.require_signed)
-        if args.signing_passphrase:
-            return SigningConfig.from_passphrase(
-                args.signing_passphrase, require_signed=args.require_signed
-            )
-    except ValueError as exc:
-        raise UsageError(f"bad signing key: {exc}") from None
-    if args.require_signed:
-        raise UsageError("--require-signed needs --signing-key or --signing-passphrase")
-    return None
+def link_signing(args: argparse.Namespace, sysid: int | None) -> SigningConfig | None:
+    """The signing of ``--keys`` for the vehicle ``sysid`` (None: the file's only key)."""
+    if args.keys is None:
+        return None
+    return connection_signing(load_keys(args.keys, args.command), sysid)
 
 
 def endpoint_from_args(text: str, args: argparse.Namespace) -> Endpoint:
@@ -74,65 +39,9 @@ def endpoint_from_args(text: str, args: argparse.Namespace) -> Endpoint:
         raise UsageError(str(exc)) from None
 
 
-def positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"must be positive, got {value:g}")
-    return value
-
-
-# -- the subcommand ----------------------------------------------------------------------
-
-
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    formats = ", ".join(FORMATS)
-    p = sub.add_parser(
-        "mission",
-        help="upload, download or clear a vehicle's mission over MAVLink",
-        description=(
-            "Move a mission between a file and one vehicle with the MAVLink mission protocol. "
-            f"The file format follows its extension ({formats}). ENDPOINT is a connection "
-            "string: udpin:HOST:PORT (listen), udpout:HOST:PORT, tcp:HOST:PORT (e.g. "
-            "ArduPilot SITL on tcp:127.0.0.1:5760), tcpin:HOST:PORT, or a serial radio "
-            "(serial:/dev/ttyUSB0:57600, /dev/ttyUSB0,57600); when it carries several "
-            "vehicles, --sysid picks one."
-        ),
-    )
-    actions = p.add_subparsers(dest="action", metavar="ACTION", required=True)
-    for name, help_text in (
-        ("upload", "send FILE to the vehicle (replaces its mission)"),
-        ("download", "read the vehicle's mission into FILE"),
-        ("clear", "delete the vehicle's mission"),
-    ):
-        a = actions.add_parser(name, help=help_text, description=help_text)
-        a.add_argument("endpoint", metavar="ENDPOINT", help="connection string of the vehicle")
-        if name != "clear":
-            a.add_argument("file", metavar="FILE", type=Path, help=f"mission file ({formats})")
-        a.add_argument(
-            "--sysid",
-            type=int,
-            metavar="N",
-            help="MAVLink system id of the vehicle, on a link that carries several (default: "
-            "the first one heard)",
-        )
-        a.add_argument(
-            "--timeout",
-            type=positive_float,
-            default=DEFAULT_HEARTBEAT_TIMEOUT_S,
-            metavar="S",
-            help=f"seconds to wait for the vehicle's heartbeat (default "
-            f"{DEFAULT_HEARTBEAT_TIMEOUT_S:g})",
-        )
-        add_link_arguments(a)
-        a.set_defaults(func=run)
-
-
 def run(args: argparse.Namespace) -> int:
     endpoint = endpoint_from_args(args.endpoint, args)
-    signing = signing_from_args(args)
+    signing = link_signing(args, args.sysid)
     items: list[MissionItem] = []
     if args.action == "upload":
         try:

@@ -14,25 +14,6 @@ from gcs.log_reader import LogError, read_log
 from gcs.report import print_summary, write_report
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser(
-        "report",
-        help="rebuild report.json, figures and the summary from a mission log (MCAP)",
-        description=(
-            "Read a mission log written by 'gcs plan --out' or 'gcs run --out' and rebuild "
-            "report.json and the PNG figures from it alone. A log cut short (the ground "
-            "station died) is read up to its last complete chunk and reported as such. "
-            "Exit status 1 when the logged mission failed."
-        ),
-    )
-    p.add_argument("log", type=Path, help="the mission log (.mcap)")
-    p.add_argument(
-        "--out", type=Path, help="folder for report.json and figures (default: the log's folder)"
-    )
-    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
-    p.set_defaults(func=run)
-
-
 def run(args: argparse.Namespace) -> int:
     try:
         result = read_log(args.log)

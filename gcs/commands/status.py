@@ -11,12 +11,7 @@ from dataclasses import dataclass, field
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from rich.table import Table
 
-from gcs.commands.mission import (
-    add_link_arguments,
-    endpoint_from_args,
-    positive_float,
-    signing_from_args,
-)
+from gcs.commands.mission import endpoint_from_args, link_signing
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK
 from vehicles.endpoints import Endpoint
@@ -26,38 +21,8 @@ from vehicles.signing import SigningConfig
 from vehicles.telemetry import TelemetryCache
 from vehicles.transport import MavlinkTransport
 
-DEFAULT_TIMEOUT_S = 5.0
 HEARTBEAT_PERIOD_S = 1.0
 _WANTED = (mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, mavlink.MAVLINK_MSG_ID_SYS_STATUS)
-
-
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser(
-        "status",
-        help="list the vehicles on one or more endpoints with mode, battery and position",
-        description=(
-            "Listen on each ENDPOINT (UDP, TCP or a serial radio) for vehicle heartbeats and "
-            "print one row per vehicle heard, however many share an endpoint: "
-            "system id, type, autopilot, mode, armed, battery and position. Waits until every "
-            "vehicle heard has reported position and battery, or until --timeout. Exit status "
-            "1 if some endpoint had no vehicle."
-        ),
-    )
-    p.add_argument(
-        "endpoints",
-        nargs="+",
-        metavar="ENDPOINT",
-        help="connection string, e.g. tcp:127.0.0.1:5760 or udpin:127.0.0.1:14550",
-    )
-    p.add_argument(
-        "--timeout",
-        type=positive_float,
-        default=DEFAULT_TIMEOUT_S,
-        metavar="S",
-        help=f"seconds to wait for heartbeats and telemetry (default {DEFAULT_TIMEOUT_S:g})",
-    )
-    add_link_arguments(p)
-    p.set_defaults(func=run)
 
 
 @dataclass
@@ -76,7 +41,7 @@ class _Seen:
 
 def run(args: argparse.Namespace) -> int:
     endpoints = [endpoint_from_args(text, args) for text in args.endpoints]
-    signing = signing_from_args(args)
+    signing = link_signing(args, None)
     console = output_console()
     try:
         seen = asyncio.run(_collect(endpoints, signing, args.timeout))
