@@ -192,6 +192,15 @@ def on_one_link(mission: Mission, connection: str) -> Mission:
     return dataclasses.replace(mission, fleet=fleet)
 
 
+def with_connections(mission: Mission, moved: Mapping[str, str]) -> Mission:
+    """The mission with each vehicle's connection ``c`` replaced by ``moved[c]``, if there."""
+    fleet = tuple(
+        dataclasses.replace(v, connection=moved.get(v.connection, v.connection))
+        for v in mission.fleet
+    )
+    return dataclasses.replace(mission, fleet=fleet)
+
+
 def default_connection(sysid: int) -> str:
     """The loopback connection of a vehicle that does not name one (see the module doc)."""
     return f"udpin:127.0.0.1:{CONNECTION_BASE_PORT + CONNECTION_PORT_STEP * (sysid - 1)}"

@@ -143,10 +143,19 @@ def parse_serial(text: str) -> Endpoint | None:
 
 def free_loopback_udp_ports(count: int) -> list[int]:
     """``count`` distinct loopback UDP ports that nobody uses right now (for mock fleets)."""
+    return _free_loopback_ports(count, socket.SOCK_DGRAM)
+
+
+def free_loopback_tcp_ports(count: int) -> list[int]:
+    """``count`` distinct loopback TCP ports that nobody uses right now."""
+    return _free_loopback_ports(count, socket.SOCK_STREAM)
+
+
+def _free_loopback_ports(count: int, kind: socket.SocketKind) -> list[int]:
     sockets = []
     try:
         for _ in range(count):
-            s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            s = socket.socket(socket.AF_INET, kind)
             s.bind(("127.0.0.1", 0))
             sockets.append(s)
         return [s.getsockname()[1] for s in sockets]

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import errno
 import logging
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
@@ -144,7 +145,7 @@ class MavlinkTransport:
             await transport._start()
         except OSError as exc:
             await transport.close()
-            raise LinkError(f"cannot open {endpoint}: {exc}") from exc
+            raise LinkError(f"cannot open {endpoint}: {_open_failure(endpoint, exc)}") from exc
         return transport
 
     async def _start(self) -> None:
@@ -460,3 +461,15 @@ def _any_system(_system: int) -> bool:
 def _is_message(msg: mavlink.MAVLink_message) -> bool:
     """A good message, not garbage or an id the dialect does not know."""
     return not isinstance(msg, mavlink.MAVLink_bad_data | mavlink.MAVLink_unknown)
+
+
+def _open_failure(endpoint: Endpoint, exc: OSError) -> str:
+    """Why a connection did not open, with what probably holds a port in use."""
+    if exc.errno != errno.EADDRINUSE:
+        return str(exc)
+    protocol = "udp" if endpoint.kind is EndpointKind.UDP_IN else "tcp"
+    return (
+        f"{protocol.upper()} port {endpoint.port} is already in use, probably by another ground "
+        "station (another gcs run, QGroundControl, MAVProxy) or a simulator; "
+        f"'ss -{protocol[0]}lpn sport = :{endpoint.port}' names the program"
+    )

@@ -21,22 +21,31 @@ from rich.console import Console
 from gcs.commands.plan import LOG_NAME, load, open_log, save_outputs
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
 from gcs.foxglove_live import LiveView, LiveViewError
+from gcs.keys import load_keys
 from gcs.live.agent import AgentSettings
 from gcs.live.display import LiveDisplay
 from gcs.live.mission import LiveOptions, MissionRefused, SimFaults, run_live
 from gcs.live.resume import ResumeError, load_resume_point
 from gcs.live.shared import Level
 from gcs.mcap_log import SCHEMAS, McapMissionLog
-from gcs.mission import Mission, on_one_link
+from gcs.mission import Mission, on_one_link, with_connections
 from gcs.mission_log import MissionLog, NullLog
 from gcs.options.run import SIM_SPEEDUP
 from gcs.preflight import check_range
 from gcs.report import print_summary
 from gcs.result import RunResult
 from sitl_mock.connection import ConnectionStringError, mirror
-from vehicles.endpoints import parse_endpoint
+from vehicles.endpoints import (
+    EndpointKind,
+    free_loopback_tcp_ports,
+    free_loopback_udp_ports,
+    parse_endpoint,
+)
 from vehicles.errors import EndpointError
-from vehicles.keyfile import KeyFile, KeyFileError, load_key_file, loose_permissions
+from vehicles.keyfile import KeyFile, KeyFileError
+
+#: Connections ``--sim`` names when it moves them to free ports (the rest are counted).
+SHOWN_PORTS = 6
 
 
 def _numbers(text: str, count: int, option: str) -> tuple[float, ...]:
@@ -143,18 +152,36 @@ def forward_endpoints(args: argparse.Namespace) -> list[str]:
 
 
 def keys_from(args: argparse.Namespace, mission: Mission) -> KeyFile | None:
-    """The fleet's signing keys of ``--keys`` (warns when the file is open to others)."""
+    """The fleet's signing keys of ``--keys``: one for each vehicle it names."""
     if args.keys is None:
         return None
+    keys = load_keys(args.keys, "run")
     try:
-        keys = load_key_file(args.keys)
         keys.check_fleet(v.sysid for v in mission.fleet)
     except KeyFileError as exc:
         raise UsageError(str(exc)) from exc
-    warning = loose_permissions(args.keys)
-    if warning is not None:
-        print(f"gcs run: warning: {warning}", file=sys.stderr)
     return keys
+
+
+def on_free_ports(mission: Mission) -> tuple[Mission, str]:
+    """``--sim``: each connection of the mission moved to a loopback port of its kind that
+    is free now, so that two simulated runs (or a SITL) never fight over a port; shared
+    connections stay shared. Returns the mission and a line that names the ports."""
+    endpoints = {
+        c: parse_endpoint(c, allow_remote=True)
+        for c in dict.fromkeys(v.connection for v in mission.fleet)
+    }
+    udp = [c for c, e in endpoints.items() if e.kind in (EndpointKind.UDP_IN, EndpointKind.UDP_OUT)]
+    tcp = [c for c, e in endpoints.items() if e.kind in (EndpointKind.TCP, EndpointKind.TCP_IN)]
+    moved = {
+        c: f"{endpoints[c].kind.value}:127.0.0.1:{port}"
+        for kinds, ports in ((udp, free_loopback_udp_ports), (tcp, free_loopback_tcp_ports))
+        for c, port in zip(kinds, ports(len(kinds)), strict=True)
+    }
+    mission = with_connections(mission, moved)
+    shown = [moved[c] for c in moved][:SHOWN_PORTS]
+    more = f" and {len(moved) - len(shown)} more" if len(moved) > len(shown) else ""
+    return mission, f"simulated vehicles on free loopback ports: {', '.join(shown)}{more}"
 
 
 def open_live(port: int) -> LiveView:
@@ -171,6 +198,9 @@ def run(args: argparse.Namespace) -> int:
     if args.one_link is not None:
         mission = on_one_link(mission, args.one_link)
     options = options_from(args, mission)
+    ports = None
+    if args.sim:
+        mission, ports = on_free_ports(mission)
     if not logging.getLogger().handlers:
         # Library warnings (link lost...) reach the operator through the display instead.
         logging.getLogger().addHandler(logging.NullHandler())
@@ -191,6 +221,8 @@ def run(args: argparse.Namespace) -> int:
     if live is not None:
         # Also with --quiet: the operator asked for it, and needs the address.
         print(f"gcs run: Foxglove live view at {live.url}", file=sys.stderr, flush=True)
+    if ports is not None:
+        console.print(ports, markup=False, highlight=False)
     display = LiveDisplay(quiet=args.quiet, console=console)
     if isinstance(mission_log, McapMissionLog):
         mission_log.on_failure = lambda text: display.notify(
