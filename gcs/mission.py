@@ -32,13 +32,23 @@ import yaml
 
 from planner.grid import Cell
 from sitl_mock.gridmap import GridMap
-from sitl_mock.maps import MapError, load_map, make_map, reachable_mask
+from sitl_mock.maps import (
+    FREE_CHAR,
+    OBSTACLE_CHAR,
+    PAD_CHAR,
+    PNG_SUFFIXES,
+    MapError,
+    load_map,
+    make_map,
+    reachable_mask,
+)
 from vehicles.geo import GeoFrame
 from vehicles.printable import is_printable
 
 MAX_SYSID = 255
 CONNECTION_BASE_PORT = 14550
 CONNECTION_PORT_STEP = 10
+_MAP_CHARS = frozenset(OBSTACLE_CHAR + FREE_CHAR + PAD_CHAR)
 
 
 class MissionError(ValueError):
@@ -201,6 +211,18 @@ def with_connections(mission: Mission, moved: Mapping[str, str]) -> Mission:
     return dataclasses.replace(mission, fleet=fleet)
 
 
+_A_MAP_NOT_A_MISSION = (
+    "a map, not a mission: give the mission file (YAML) that names it, e.g. a file "
+    "holding the line 'map: <this file>' (see the README's Mission files)"
+)
+
+
+def _looks_like_an_ascii_map(text: str) -> bool:
+    """Only lines of map characters (YAML reads a line starting with '#' as a comment)."""
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    return bool(lines) and all(set(line) <= _MAP_CHARS for line in lines)
+
+
 def default_connection(sysid: int) -> str:
     """The loopback connection of a vehicle that does not name one (see the module doc)."""
     return f"udpin:127.0.0.1:{CONNECTION_BASE_PORT + CONNECTION_PORT_STEP * (sysid - 1)}"
@@ -238,12 +260,16 @@ def load_mission(path: str | Path) -> Mission:
     """Read and validate a mission file; raise :class:`MissionError` on any problem."""
     path = Path(path)
     source = str(path)
+    if path.suffix.lower() in PNG_SUFFIXES:
+        raise MissionError(source, None, _A_MAP_NOT_A_MISSION)
     try:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError:
         raise MissionError(source, None, "not a text file (not valid UTF-8)") from None
     except OSError as exc:
         raise MissionError(source, None, f"cannot read file: {exc.strerror or exc}") from None
+    if _looks_like_an_ascii_map(text):
+        raise MissionError(source, None, _A_MAP_NOT_A_MISSION)
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:

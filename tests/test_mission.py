@@ -229,9 +229,15 @@ def test_png_map_with_a_charger(tmp_path: Path) -> None:
     assert mission.map.free_count == 5
 
 
+A_MAP = (
+    "a map, not a mission: give the mission file (YAML) that names it, e.g. a file holding "
+    "the line 'map: <this file>' (see the README's Mission files)"
+)
 # Malformed missions: (mission text, map text or None for the default, expected message).
 BAD: list[tuple[str, str | None, str]] = [
     ("", None, "file is empty (a mission needs at least 'map')"),
+    ("#####\n#..C#\n#####\n", None, A_MAP),
+    ("....\n..C.\n", None, A_MAP),
     ("- map: m.txt\n", None, "top level must be a mapping of keys, got a list"),
     (
         "map: m.txt\nfleet: {count: 2\n",
@@ -423,3 +429,10 @@ def test_charger_distances_are_breadth_first_moves_over_the_true_map(seed: int) 
                 expected[nr, nc] = expected[r, c] + 1
                 queue.append((nr, nc))
     assert (charger_distances(make_mission(grid, 1)) == expected).all()
+
+
+def test_a_png_map_given_as_the_mission(tmp_path: Path) -> None:
+    path = tmp_path / "map.png"
+    path.write_bytes(b"\x89PNG\r\n\x1a\n")
+    with pytest.raises(MissionError, match="a map, not a mission"):
+        load_mission(path)
