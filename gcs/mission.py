@@ -158,6 +158,9 @@ class PlannerSpec:
     #: Charge on the way when the round trip costs at most this share of the charge
     #: gained (None: only when needed; PlannerSettings).
     top_up_ratio: float | None = None
+    #: When coverage is complete, charge each vehicle to full before it parks (False:
+    #: home and park at once; PlannerSettings).
+    charge_at_end: bool = False
 
 
 @dataclass(frozen=True)
@@ -253,6 +256,7 @@ _PLANNER_KEYS = (
     "max_iterations",
     "far_transit_recheck",
     "top_up_ratio",
+    "charge_at_end",
 )
 
 
@@ -513,6 +517,7 @@ class _Loader:
             max_iterations=self.optional_count(section, "max_iterations", "planner"),
             far_transit_recheck=self.optional_count(section, "far_transit_recheck", "planner"),
             top_up_ratio=None if top_up is None else float(top_up),
+            charge_at_end=self.flag(section, "charge_at_end", "planner", default.charge_at_end),
         )
 
     # ----------------------------------------------------------------- helpers

@@ -85,6 +85,7 @@ def planner_settings(mission: Mission, seed: int = 0, **strategy: object) -> Pla
         "charging_slots": spec.charging_slots,
         "path_planner": PathPlannerKind(spec.path_planner),
         "far_transit_recheck": spec.far_transit_recheck or 0,
+        "charge_at_end": spec.charge_at_end,
         "seed": seed,
     }
     if spec.top_up_ratio is not None:  # null: the planner's default

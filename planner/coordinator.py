@@ -371,6 +371,12 @@ class Coordinator:
         return self._recalled or self.coverage_complete
 
     @property
+    def _no_more_charges(self) -> bool:
+        """Agents at the charger are done there without charging: the mission was
+        recalled, or coverage is complete and ``charge_at_end`` is off."""
+        return self._recalled or (not self.settings.charge_at_end and self.coverage_complete)
+
+    @property
     def finished(self) -> bool:
         # Asked after every iteration: a loop, with no generator to build.
         for a in self._agents.values():  # noqa: SIM110
@@ -516,7 +522,7 @@ class Coordinator:
         if self.belief.charger_dist[here] == UNREACHED:
             return self._reconnect(a)
         if mode == _CHARGE:
-            if a.battery_pct < self.settings.resume_pct - _EPS and not self._recalled:
+            if a.battery_pct < self.settings.resume_pct - _EPS and not self._no_more_charges:
                 return CHARGE
             a.mode = mode = _IDLE
         if not at_charger and mode not in _HOMEWARD and not self._can_afford(a, 0, here):
@@ -536,7 +542,8 @@ class Coordinator:
             a.path.clear()
         if mode in _HOMEWARD:
             if at_charger:
-                if mode == _HOMING or self._recalled:
+                full = a.battery_pct >= self.settings.resume_pct - _EPS
+                if self._no_more_charges or (mode == _HOMING and full):
                     a.mode = _DONE
                     return WAIT
                 a.mode = _CHARGE

@@ -83,6 +83,10 @@ class PlannerSettings:
     #: Charges taken near the charger early spare trips from the far end of the
     #: map later, and thin a crowd (see README, Performance).
     top_up_ratio: float = 0.4
+    #: When coverage is complete, every agent charges to ``resume_pct`` at home before
+    #: it is done; False: it is done once home, and the mission ends without waiting
+    #: on charges nobody needs.
+    charge_at_end: bool = False
     #: Iterations an agent waits on another before asking it to make way.
     patience: int = 2
     #: Share of known free cells that are PRM nodes, and the connection radius in

@@ -237,6 +237,11 @@ A_MAP = (
 BAD: list[tuple[str, str | None, str]] = [
     ("", None, "file is empty (a mission needs at least 'map')"),
     ("#####\n#..C#\n#####\n", None, A_MAP),
+    (
+        "map: m.txt\nplanner: {charge_at_end: 1}\n",
+        None,
+        "planner.charge_at_end: must be true or false, got 1",
+    ),
     ("....\n..C.\n", None, A_MAP),
     ("- map: m.txt\n", None, "top level must be a mapping of keys, got a list"),
     (

@@ -66,3 +66,45 @@ def test_recalled_agents_all_go_home_apart_and_stop(
     for i in ids:
         assert coordinator.mode(i) == AgentMode.DONE
         assert world.position[i] == grid.charger
+
+
+def _fly_to_the_end(grid: object, agents: int, charge_at_end: bool) -> tuple[int, list[float]]:
+    """A whole mission with slow charging: the charges asked for once coverage was complete,
+    and every agent's battery at the end."""
+    ids = list(range(1, agents + 1))
+    settings_ = PlannerSettings(
+        reserve_pct=20.0, charge_pct_per_step=2.0, charge_at_end=charge_at_end
+    )
+    coordinator = Coordinator(grid.shape, grid.charger, [AgentSpec(i, 1.5) for i in ids], settings_)  # type: ignore[attr-defined]
+    world = LockstepWorld(grid, [Body(i, 1.5) for i in ids], charge_pct_per_step=2.0)  # type: ignore[arg-type]
+    for i in ids:
+        coordinator.observe(i, grid.charger, world.sense(grid.charger), world.battery[i])  # type: ignore[attr-defined]
+    late_charges = 0
+    for _ in range(5000):
+        if coordinator.finished:
+            break
+        complete = coordinator.coverage_complete
+        for i in ids:
+            action = coordinator.decide(i)
+            if action.kind == ActionKind.MOVE:
+                assert action.to is not None
+                world.move(i, action.to)
+                coordinator.observe(i, action.to, world.sense(action.to), world.battery[i])
+            elif action.kind == ActionKind.CHARGE:
+                late_charges += complete
+                world.request_charge(i)
+        world.end_iteration()
+        for i in ids:
+            coordinator.update_battery(i, world.battery[i])
+    assert coordinator.finished
+    return late_charges, [world.battery[i] for i in ids]
+
+
+def test_at_the_end_vehicles_park_without_a_full_charge_unless_asked() -> None:
+    """Coverage complete: by default an agent at the charger is done at once (the mission
+    does not wait on charges nobody needs); with ``charge_at_end`` each charges to full."""
+    grid = mapgen.rooms(24, 24, 3)
+    late, batteries = _fly_to_the_end(grid, 4, charge_at_end=False)
+    assert late == 0 and min(batteries) < 100.0
+    late, batteries = _fly_to_the_end(grid, 4, charge_at_end=True)
+    assert late > 0 and min(batteries) >= 100.0 - 1e-6
