@@ -8,6 +8,7 @@ from hypothesis import strategies as st
 from planner.coordinator import ActionKind, AgentMode, Coordinator
 from planner.settings import AgentSpec, PlannerSettings
 from sitl_mock import mapgen
+from sitl_mock.gridmap import GridMap
 from sitl_mock.lockstep import Body, LockstepWorld
 
 GENERATORS = (mapgen.rooms, mapgen.caves, mapgen.open_field)
@@ -68,17 +69,17 @@ def test_recalled_agents_all_go_home_apart_and_stop(
         assert world.position[i] == grid.charger
 
 
-def _fly_to_the_end(grid: object, agents: int, charge_at_end: bool) -> tuple[int, list[float]]:
+def _fly_to_the_end(grid: GridMap, agents: int, charge_at_end: bool) -> tuple[int, list[float]]:
     """A whole mission with slow charging: the charges asked for once coverage was complete,
     and every agent's battery at the end."""
     ids = list(range(1, agents + 1))
     settings_ = PlannerSettings(
         reserve_pct=20.0, charge_pct_per_step=2.0, charge_at_end=charge_at_end
     )
-    coordinator = Coordinator(grid.shape, grid.charger, [AgentSpec(i, 1.5) for i in ids], settings_)  # type: ignore[attr-defined]
-    world = LockstepWorld(grid, [Body(i, 1.5) for i in ids], charge_pct_per_step=2.0)  # type: ignore[arg-type]
+    coordinator = Coordinator(grid.shape, grid.charger, [AgentSpec(i, 1.5) for i in ids], settings_)
+    world = LockstepWorld(grid, [Body(i, 1.5) for i in ids], charge_pct_per_step=2.0)
     for i in ids:
-        coordinator.observe(i, grid.charger, world.sense(grid.charger), world.battery[i])  # type: ignore[attr-defined]
+        coordinator.observe(i, grid.charger, world.sense(grid.charger), world.battery[i])
     late_charges = 0
     for _ in range(5000):
         if coordinator.finished:
