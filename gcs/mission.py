@@ -156,7 +156,7 @@ class PlannerSpec:
     #: the way beyond it is travelled (None: at every step; PlannerSettings).
     far_transit_recheck: int | None = None
     #: Charge on the way when the round trip costs at most this share of the charge
-    #: gained (None: only when needed; PlannerSettings).
+    #: gained (None: the planner's default, PlannerSettings.top_up_ratio).
     top_up_ratio: float | None = None
     #: When coverage is complete, charge each vehicle to full before it parks (False:
     #: home and park at once; PlannerSettings).
@@ -351,7 +351,12 @@ class _Loader:
         charger = self.charger(data.get("charger"), grid)
         if charger is None:
             if not grid.pads:
-                raise self.fail("map", "no charging pad 'C' (mark one in the map or set 'charger')")
+                how = (
+                    "set 'charger: [row, col]' (a PNG map cannot mark one)"
+                    if Path(file).suffix.lower() in PNG_SUFFIXES
+                    else "mark one in the map or set 'charger'"
+                )
+                raise self.fail("map", f"no charging pad 'C' ({how})")
             charger = grid.charger
         pads = (charger, *(p for p in grid.pads[1:] if p != charger))
         grid = make_map(grid.obstacle, pads)

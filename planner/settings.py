@@ -75,13 +75,13 @@ class PlannerSettings:
     #: moves away only once half the way beyond N is travelled (0: at every
     #: step). Each search covers the known map around the agent out to the
     #: target, so on large maps these searches are most of the planner's time;
-    #: the plans change (shorter on some maps, longer on others: see README).
+    #: the plans change (shorter on some maps, longer on others: docs/performance.md).
     far_transit_recheck: int = 0
     #: An agent that found its next target farther away than the charger goes to
     #: charge first when the way there and back costs at most this share of the
     #: charge it would get (0: only when the battery needs it, as the paper).
     #: Charges taken near the charger early spare trips from the far end of the
-    #: map later, and thin a crowd (see README, Performance).
+    #: map later, and thin a crowd (docs/performance.md).
     top_up_ratio: float = 0.4
     #: When coverage is complete, every agent charges to ``resume_pct`` at home before
     #: it is done; False: it is done once home, and the mission ends without waiting

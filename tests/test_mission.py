@@ -417,7 +417,7 @@ def test_png_map_needs_a_charger(tmp_path: Path) -> None:
     with pytest.raises(MissionError) as info:
         load_mission(path)
     assert str(info.value) == (
-        f"{path}: map: no charging pad 'C' (mark one in the map or set 'charger')"
+        f"{path}: map: no charging pad 'C' (set 'charger: [row, col]' (a PNG map cannot mark one))"
     )
 
 

@@ -3,7 +3,7 @@
 ``gcs bench paper`` reproduces the paper's Table 1 (scenario 1 with 1 to 11
 agents: charges, iterations, compute time per step) and Table 2 (the 30x30
 comparison with NB-MSTC and BoB, 4 agents, no battery limit) on our maps,
-beside the paper's figures, with the normalised ratios of ALGORITHM.md so
+beside the paper's figures, with normalised ratios (docs/algorithm.md) so
 that maps of slightly different size compare fairly.
 """
 

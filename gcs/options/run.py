@@ -23,8 +23,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
             "Connect to every vehicle of the mission, check it is ready on the charger, and "
             "explore and cover the area with the staying alive policy, each vehicle at its own "
             "pace; every vehicle comes back to charge before its battery runs out and goes home "
-            "at the end. Ctrl-C sends every vehicle to charge. Exit status 0 when coverage is "
-            "complete with no vehicle lost, 1 otherwise, 2 on bad input."
+            "at the end. Ctrl-C brings every vehicle home and parks it (a second Ctrl-C stops "
+            "the station at once). Exit status 0 when coverage is complete with no vehicle "
+            "lost, 1 otherwise, 2 on bad input, 130 after Ctrl-C."
         ),
     )
     p.add_argument("mission", type=Path, help="mission file (YAML)")
