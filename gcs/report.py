@@ -40,7 +40,7 @@ def _round(value: Any) -> Any:
 
 
 def homing_m(result: RunResult) -> float:
-    """Metres all agents drove to and from the charger (not coverage)."""
+    """Metres all agents drove home once coverage was complete (or the mission recalled)."""
     return sum(a.homing_m for a in result.agents)
 
 
@@ -135,6 +135,21 @@ def _verdict(result: RunResult) -> str:
     return "complete" if result.complete else "INCOMPLETE"
 
 
+def _steps_label(result: RunResult) -> str:
+    """What ``result.iterations`` counts, in the words the figures use: a plan's steps
+    (every vehicle moves at most one cell), a timed plan's ticks, the cells the busiest
+    vehicle of a live run moved, or what a cut log holds."""
+    if result.interrupted:
+        what = "Steps in the cut log"
+    elif result.extra.get("live"):
+        what = "Moves of the busiest vehicle"
+    elif "mission_s" in result.extra:
+        what = "Plan ticks"
+    else:
+        what = "Plan steps"
+    return what + (" to full coverage" if result.covered_cells >= result.free_cells else "")
+
+
 def summary_rows(result: RunResult) -> list[tuple[str, str]]:
     """Label/value pairs for the terminal summary table."""
     n_agents = len(result.agents)
@@ -151,7 +166,7 @@ def summary_rows(result: RunResult) -> list[tuple[str, str]]:
         ("Total path", f"{result.total_path_m:.1f} m"),
         ("Homing", f"{homing_m(result):.1f} m"),
         ("Makespan", f"{result.makespan_m:.1f} m"),
-        ("Iterations", str(result.iterations)),
+        (_steps_label(result), str(result.iterations)),
         ("Charges", str(charges_total(result))),
         ("BTPs detected", str(len(result.btps))),
         ("Safety net fires", str(result.safety_net_fires)),

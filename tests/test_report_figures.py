@@ -1,24 +1,42 @@
-"""Report and figures of a small hand-made run."""
+"""Report and figures of a small hand-made run: values, and figures a reviewer can read."""
 
 from __future__ import annotations
 
 import io
 import json
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.transforms import Bbox
 from PIL import Image
 from rich.console import Console
 
-from gcs.figures import write_figures
+from gcs.figures import (
+    MISSION_LOG,
+    PREDICTED_TIME_LABEL,
+    STEP_LABEL,
+    TIME_LABEL,
+    battery_plot,
+    coverage_plot,
+    explored_plot,
+    path_length_plot,
+    timeline,
+    write_figures,
+)
+from gcs.log_reader import LogContents, VehicleState, read_contents, read_log
+from gcs.mcap_log import McapMissionLog
 from gcs.report import print_summary, report_dict, summary_rows, write_report
 from gcs.result import AgentTrace, BtpRecord, RunResult
 from gcs.simulate import simulate
 from planner.grid import Cell, CellState
 from sitl_mock import mapgen
 from tests.checks import make_mission
+from vehicles.geo import GeoFrame
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 MAP = (
@@ -200,3 +218,177 @@ def test_figures_of_a_large_fleet_keep_their_axes(tmp_path: Path) -> None:
         warnings.simplefilter("error")  # "constrained_layout not applied" and the like
         paths = write_figures(result, tmp_path)
     assert len(paths) == 4
+
+
+# --------------------------------------------------------------------------- readability
+
+
+def _drawn(fig: Figure) -> Figure:
+    """The figure laid out as it is saved (constrained layout runs at draw time)."""
+    fig.canvas.draw()
+    return fig
+
+
+def _main_axes(fig: Figure) -> Axes:
+    return fig.axes[0]
+
+
+def _legend_texts(fig: Figure) -> list[str]:
+    return [t.get_text() for legend in fig.legends for t in legend.get_texts()]
+
+
+def _all_plots(result: RunResult) -> list[Figure]:
+    clock = timeline(result)
+    return [
+        coverage_plot(result),
+        path_length_plot(result),
+        battery_plot(result, clock),
+        explored_plot(result, clock),
+    ]
+
+
+def test_coverage_axes_are_east_and_north_in_metres() -> None:
+    result = make_result()  # 6 x 8 cells of 1.5 m
+    ax = _main_axes(_drawn(coverage_plot(result)))
+    assert "east" in ax.get_xlabel() and "[m]" in ax.get_xlabel()
+    assert "north" in ax.get_ylabel() and "[m]" in ax.get_ylabel()
+    assert ax.get_xlim() == pytest.approx((0.0, 8 * 1.5))
+    assert ax.get_ylim() == pytest.approx((-6 * 1.5, 0.0))  # row 0 is the northern edge
+    # Vehicle 1 starts on the charger, cell (5, 3): 3.5 cells east, 5.5 cells south.
+    east, north = ax.lines[1].get_xydata()[0]
+    assert (east, north) == pytest.approx((3.5 * 1.5, -5.5 * 1.5))
+
+
+def test_coverage_ticks_are_whole_metres() -> None:
+    ax = _main_axes(_drawn(coverage_plot(make_result())))
+    for ticks, (low, high) in ((ax.get_xticks(), ax.get_xlim()), (ax.get_yticks(), ax.get_ylim())):
+        shown = [t for t in ticks if low - 1e-9 <= t <= high + 1e-9]
+        assert len(shown) >= 3
+        assert all(float(t).is_integer() for t in shown), shown
+
+
+def test_backtracking_points_are_hollow_and_named_in_plain_words() -> None:
+    result = make_result()  # two BTPs covered, one not
+    fig = coverage_plot(result)
+    rings = [c for c in _main_axes(fig).collections if len(c.get_offsets())]
+    hollow, filled = rings
+    assert len(hollow.get_offsets()) == 2 and len(hollow.get_facecolors()) == 0
+    assert len(filled.get_offsets()) == 1
+    texts = _legend_texts(fig)
+    assert any(t.startswith("backtracking point") for t in texts)
+    assert not any("BTP" in t for t in texts)
+
+
+def test_legends_stay_off_the_axes() -> None:
+    for fig in _all_plots(make_result()):
+        _drawn(fig)
+        renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+        (legend,) = fig.legends
+        box = legend.get_window_extent(renderer)
+        for ax in fig.axes:
+            assert not box.overlaps(ax.get_window_extent(renderer)), ax.get_title()
+            assert not box.overlaps(Bbox(ax.get_tightbbox(renderer))), ax.get_title()
+
+
+def test_plots_over_time_share_one_clock() -> None:
+    result = make_result()
+    _, _, battery, explored = (_drawn(f) for f in _all_plots(result))
+    labels = {_main_axes(f).get_xlabel() for f in (battery, explored)}
+    assert labels == {STEP_LABEL}
+    assert _main_axes(battery).get_xlim() == _main_axes(explored).get_xlim() == (0, 8)
+
+
+def test_a_timed_plan_is_drawn_in_predicted_seconds() -> None:
+    result = make_result()
+    result = replace(result, extra={"total_iterations": 8, "mission_s": 2.0, "coverage_s": 1.5})
+    clock = timeline(result)
+    assert clock is not None and clock.label == PREDICTED_TIME_LABEL
+    assert clock.battery[1].x[-1] == pytest.approx(2.0)
+    assert clock.covered.x[-1] == pytest.approx(2.0)
+
+
+def _live_result() -> RunResult:
+    """A live run of one vehicle: start, two arrivals, two samples on the charger."""
+    base = make_result()
+    agent = AgentTrace(
+        id=1,
+        track=((5, 3), (4, 3), (5, 3), (5, 3), (5, 3)),
+        battery_pct=(100.0, 96.0, 92.0, 92.0, 100.0),
+        path_m=3.0,
+        homing_m=0.0,
+        charges=1,
+        min_battery_pct=92.0,
+    )
+    return replace(
+        base,
+        agents=(agent,),
+        covered_per_iteration=(2, 2),
+        extra={"live": 1, "mission_s": 11.0, "coverage_s": 5.0},
+    )
+
+
+def _live_log(result: RunResult) -> LogContents:
+    states = [VehicleState(2.0, (4, 3), 96.0, "exploring"), VehicleState(5.0, (5, 3), 92.0, "x")]
+    return LogContents(
+        meta={"mission": result.mission, "shape": list(result.shape)},
+        states={1: states},
+        topics={"/mavlink/1/in": ""},
+    )
+
+
+def test_a_live_run_is_drawn_in_mission_seconds_from_its_log() -> None:
+    result = _live_result()
+    clock = timeline(result, _live_log(result))
+    assert clock is not None and clock.label == TIME_LABEL
+    # Arrivals at their logged times; the charger's samples spread up to the mission's end.
+    assert clock.battery[1].x.tolist() == pytest.approx([0.0, 2.0, 5.0, 8.0, 11.0])
+    assert clock.covered.x.tolist() == [2.0, 5.0]
+    assert clock.covered_at == 5.0 and clock.end == 11.0
+    fig = _drawn(explored_plot(result, clock))
+    assert _main_axes(fig).get_xlabel() == TIME_LABEL
+
+
+def test_a_live_run_without_its_log_says_so_instead_of_guessing() -> None:
+    result = _live_result()
+    assert timeline(result) is None
+    other = _live_log(result)
+    other.states[1] = other.states[1][:1]  # not this run's arrivals
+    assert timeline(result, other) is None
+    fig = battery_plot(result, None)
+    assert not _main_axes(fig).axison
+    assert "mission log" in _main_axes(fig).texts[0].get_text()
+
+
+def test_figures_of_a_cut_log_find_the_log_beside_them(tmp_path: Path) -> None:
+    """A result rebuilt from a cut log has no clock of its own: its log gives one."""
+    mission = make_mission(mapgen.open_field(10, 10, 1), 2, name="cut")
+    beside = tmp_path / "beside"
+    beside.mkdir()
+    path = beside / MISSION_LOG
+    o = mission.origin
+    log = McapMissionLog(
+        path,
+        mission_name=mission.name,
+        shape=mission.map.shape,
+        cell_size_m=mission.cell_size_m,
+        charger=mission.charger,
+        geo=GeoFrame(o.lat_deg, o.lon_deg, o.alt_m, mission.cell_size_m),
+        reserve_pct=mission.planner.reserve_pct,
+        chunk_size=2048,
+    )
+    simulate(mission, log=log)
+    path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    result = read_log(path)
+    assert result.interrupted and timeline(result) is None
+    clock = timeline(result, read_contents(path))
+    assert clock is not None and clock.label == STEP_LABEL  # a plan's log
+    with_log = write_figures(result, beside)[3].read_bytes()
+    elsewhere = write_figures(result, tmp_path / "elsewhere")[3].read_bytes()
+    assert with_log != elsewhere  # drawn over steps vs. the "no times" note
+    assert write_figures(result, tmp_path / "given", log=path)[3].read_bytes() == with_log
+
+
+def test_summary_never_says_iterations() -> None:
+    labels = [label for label, _ in summary_rows(make_result())]
+    assert not any("Iteration" in label for label in labels)
+    assert "Plan steps" in labels  # one free cell is left: not "to full coverage"

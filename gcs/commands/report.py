@@ -22,7 +22,7 @@ def run(args: argparse.Namespace) -> int:
     out: Path = args.out if args.out is not None else args.log.parent
     try:
         write_report(result, out)
-        write_figures(result, out)
+        write_figures(result, out, log=args.log)
     except OSError as exc:
         raise UsageError(f"--out: cannot write to {out}: {exc.strerror}") from exc
     console = output_console(quiet=args.quiet)
