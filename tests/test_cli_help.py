@@ -75,8 +75,8 @@ def test_help_is_plain_text(argv: tuple[str, ...], capsys: pytest.CaptureFixture
 
 
 def test_defaults_agree_with_the_code() -> None:
-    assert run_options.LOST_AFTER_S == AgentSettings().lost_after_s
-    assert bench_options.PERF_KINDS == tuple(GENERATORS)
-    assert bench_options.MAVLINK_TIMERS == tuple(TIMERS)
-    assert bench_options.PAPER_AGENTS == tuple(sorted(PAPER_TABLE1))
+    assert AgentSettings().lost_after_s == run_options.LOST_AFTER_S
+    assert tuple(GENERATORS) == bench_options.PERF_KINDS
+    assert tuple(TIMERS) == bench_options.MAVLINK_TIMERS
+    assert tuple(sorted(PAPER_TABLE1)) == bench_options.PAPER_AGENTS
     assert bench_options.MAX_SYSID == MAX_SYSID

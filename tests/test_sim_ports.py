@@ -77,7 +77,7 @@ def test_two_simulated_runs_at_once_both_complete(tmp_path: Path) -> None:
         gcs_process(*common, "--quiet", "--out", str(tmp_path / "b")) as second,
     ):
         out_a, err_a = first.communicate(timeout=200)
-        out_b, err_b = second.communicate(timeout=200)
+        _out_b, err_b = second.communicate(timeout=200)
     assert (first.returncode, second.returncode) == (0, 0), (err_a, err_b)
     assert "simulated vehicles on free loopback ports: udpin:127.0.0.1:" in out_a
     for folder in ("a", "b"):
