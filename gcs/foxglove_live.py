@@ -58,8 +58,9 @@ class LiveView:
                 context=self._context,
             )
             self._channels[topic] = channel
-        # Stamped with the wall clock, as a live source is; the mission time is in the
-        # message's own timestamp.
+        # Stamped with the wall clock as it is sent, as a live source is; the message's own
+        # timestamp is the file's stamp (the mission start plus the mission time, which runs
+        # ahead of the wall clock under a speed-up: see ``gcs.mcap_log``).
         channel.log(data, log_time=time.time_ns())
 
     def close(self) -> None:

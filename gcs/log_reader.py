@@ -148,7 +148,6 @@ def _take(contents: LogContents, channel: Channel, message: Message) -> None:
         data = json.loads(message.data)
     except ValueError:
         return
-    t_s = message.log_time / 1e9
     if topic.startswith("/vehicle/") and topic.endswith("/battery"):
         state = VehicleState(
             float(data["t_s"]),
@@ -163,11 +162,20 @@ def _take(contents: LogContents, channel: Channel, message: Message) -> None:
     elif topic == BTPS_TOPIC:
         contents.btps = _btp_cells(data)
     elif topic == EVENTS_TOPIC:
+        t_s = float(data["t_s"]) if "t_s" in data else mission_s(contents, message.log_time)
         contents.events.append(LogEvent(t_s, data["level"], data["name"], data["message"]))
     elif topic == META_TOPIC:
         contents.meta = data
     elif topic == RESULT_TOPIC:
         contents.result = data
+
+
+def mission_s(contents: LogContents, log_time_ns: int) -> float:
+    """The mission seconds of a message's ``log_time``: UTC since ``started_unix_ns`` of
+    ``/run/meta`` (see :mod:`gcs.mcap_log`); logs written before that stamped mission
+    time itself (from 0)."""
+    started = (contents.meta or {}).get("started_unix_ns")
+    return (log_time_ns - int(started)) / 1e9 if started is not None else log_time_ns / 1e9
 
 
 def _btp_cells(update: dict[str, Any]) -> list[Cell]:

@@ -17,6 +17,26 @@ mission time.
 Frames: ``map`` is a local East-North-Up frame whose origin is the north-west
 corner of cell (0, 0) (``x`` east, ``y`` north, metres), the corner the
 mission's geographic origin names.
+
+Time: every message's ``log_time`` (and ``publish_time``, and the ``timestamp``
+inside the Foxglove messages) is UTC: the wall clock at mission time 0 (the
+mission's start, ``start``) plus the mission seconds of the message. Mission
+time, not the wall clock at the moment of writing, because the mission clock is
+injected and runs faster than real time under a speed-up (``vehicles.clock``):
+stamped on the wall clock, a simulated run's log would squeeze ten minutes of
+battery drain into one and put events in the order the event loop happened to
+write them, while stamped on mission time a log reads the same, in vehicle
+seconds, whatever the speed-up, and a real mission (speed-up 1) is on the wall
+clock anyway. The stamp is computed from the mission seconds alone, so writing
+never waits on a clock or on anything else. The mission seconds stay readable:
+``t_s`` in the vehicle states and the events, and for any message
+``(log_time - started_unix_ns) / 1e9`` with ``started_unix_ns`` of ``/run/meta``
+(exact: the stamp is built that way). In an offline run the mission "seconds"
+are iterations.
+
+Events (``/events``, ``foxglove.Log``, what Foxglove's Log panel shows) name their
+source (``gcs`` or ``vehicle N``) and carry a level (debug, info, warning, error,
+fatal).
 """
 
 from __future__ import annotations
@@ -81,6 +101,10 @@ TRACK_RGB = (
     (0.5, 0.5, 0.5),
 )
 LOG_LEVELS = {"debug": 1, "info": 2, "warning": 3, "warn": 3, "error": 4, "fatal": 5}
+
+
+def _unix_ns(unix_s: float | None) -> int:
+    return time.time_ns() if unix_s is None else round(unix_s * 1e9)
 
 
 # ------------------------------------------------------------------ JSON schemas
@@ -214,6 +238,8 @@ SCHEMAS: dict[str, dict[str, Any]] = {
         name=_str(),
         file=_str(),
         line=_int(),
+        # Ours, besides Foxglove's fields: the event's mission seconds.
+        t_s=_num(),
     ),
     BATTERY_SCHEMA: _obj(
         BATTERY_SCHEMA,
@@ -235,6 +261,7 @@ SCHEMAS: dict[str, dict[str, Any]] = {
         reserve_pct=_num(),
         origin=_obj(None, lat_deg=_num(), lon_deg=_num(), alt_m=_num()),
         started_unix_s=_num(),
+        started_unix_ns=_int(),
         free_cells=_int(),
     ),
     RESULT_SCHEMA: {"type": "object", "title": RESULT_SCHEMA},
@@ -338,8 +365,7 @@ def result_from_json(data: dict[str, Any]) -> RunResult:
 # ------------------------------------------------------------------ message builders
 
 
-def _stamp(t_s: float) -> dict[str, int]:
-    ns = max(0, round(t_s * 1e9))
+def _stamp(ns: int) -> dict[str, int]:
     return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
 
 
@@ -353,9 +379,9 @@ def _move_heading(a: Cell, b: Cell) -> float | None:
     return math.degrees(math.atan2(b[1] - a[1], a[0] - b[0])) % 360.0
 
 
-def _entity(t_s: float, entity_id: str, **primitives: Any) -> dict[str, Any]:
+def _entity(ns: int, entity_id: str, **primitives: Any) -> dict[str, Any]:
     entity: dict[str, Any] = {
-        "timestamp": _stamp(t_s),
+        "timestamp": _stamp(ns),
         "frame_id": MAP_FRAME,
         "id": entity_id,
         "lifetime": {"sec": 0, "nsec": 0},
@@ -434,9 +460,13 @@ class McapMissionLog:
         scene_fraction: float = 0.05,
         live: LiveView | None = None,
         on_failure: Callable[[str], None] | None = None,
+        started_unix_s: float | None = None,
     ) -> None:
         """``path`` None writes no file: the messages go to ``live`` only (a Foxglove
         live view, which gets every message but the raw MAVLink ones).
+
+        ``started_unix_s``: the wall clock (Unix seconds) at mission time 0; now by
+        default, and set again by ``start`` when the mission's clock starts later.
 
         Writing the log is never flying: a write that fails (a full disk, a file
         system gone) ends the file where it is, is told once to ``on_failure`` and
@@ -472,7 +502,26 @@ class McapMissionLog:
         #: Why and when (mission seconds) the file stopped being written, if it did.
         self.failure: str | None = None
         self.on_failure = on_failure
-        self._write_meta(mission_name, charger, reserve_pct, free_cells)
+        #: UTC nanoseconds of mission time 0: every stamp is this plus the mission time.
+        self.started_unix_ns = _unix_ns(started_unix_s)
+        self._meta = (mission_name, charger, reserve_pct, free_cells)
+        self._write_meta()
+        self._write_frame()
+        self.flush()
+
+    def start(self, unix_s: float | None = None) -> None:
+        """Mission time 0 is now (or ``unix_s``, Unix seconds): what is logged from here
+        is stamped from it, and ``/run/meta`` is written again with it (a reader takes
+        the last one). For a mission whose clock starts a while after the log is opened
+        (the live mission's, once the planner is compiled); call it before logging
+        anything else."""
+        self.started_unix_ns = _unix_ns(unix_s)
+        self._write_meta()
+        self.flush()
+
+    def _ns(self, t_s: float) -> int:
+        """The UTC stamp (ns) of mission time ``t_s``: see the module's docstring."""
+        return self.started_unix_ns + max(0, round(t_s * 1e9))
 
     # -------------------------------------------------------------- plumbing
 
@@ -505,7 +554,7 @@ class McapMissionLog:
             return
         try:
             channel = self._channel(writer, topic, schema, "json" if schema else RAW_ENCODING)
-            ns = max(0, round(t_s * 1e9))
+            ns = self._ns(t_s)
             self._sequence += 1
             writer.add_message(channel, ns, data, ns, self._sequence)
         except Exception as exc:  # whatever breaks the file must not reach the caller
@@ -543,11 +592,11 @@ class McapMissionLog:
             self._fail(exc)
         self._last_flush = time.monotonic()
 
-    def _write_meta(
-        self, mission: str, charger: Cell, reserve_pct: float, free_cells: int | None
-    ) -> None:
+    def _write_meta(self) -> None:
         """What the run is about, first in the file: with the mission's own count of free
-        cells, against which a log cut short is reported."""
+        cells, against which a log cut short is reported, and the wall clock at mission
+        time 0 (``started_unix_s``, and exactly, ``started_unix_ns``)."""
+        mission, charger, reserve_pct, free_cells = self._meta
         geo = self._geo
         meta: dict[str, Any] = {
             "mission": mission,
@@ -556,24 +605,26 @@ class McapMissionLog:
             "charger": list(charger),
             "reserve_pct": reserve_pct,
             "origin": {"lat_deg": geo.lat_deg, "lon_deg": geo.lon_deg, "alt_m": geo.alt_m},
-            "started_unix_s": time.time(),
+            "started_unix_s": self.started_unix_ns / 1e9,
+            "started_unix_ns": self.started_unix_ns,
         }
         if free_cells is not None:
             meta["free_cells"] = free_cells
         self._json(META_TOPIC, META_SCHEMA, 0.0, meta)
+
+    def _write_frame(self) -> None:
         self._json(
             TF_TOPIC,
             "foxglove.FrameTransform",
             0.0,
             {
-                "timestamp": _stamp(0.0),
+                "timestamp": _stamp(self._ns(0.0)),
                 "parent_frame_id": "world",
                 "child_frame_id": MAP_FRAME,
                 "translation": {"x": 0.0, "y": 0.0, "z": 0.0},
                 "rotation": IDENTITY,
             },
         )
-        self.flush()
 
     def _vehicle(self, sysid: int) -> _Vehicle:
         vehicle = self._vehicles.get(sysid)
@@ -639,7 +690,7 @@ class McapMissionLog:
             lat_deg, lon_deg = geo.local_to_geo(north, east)
         else:
             north, east = geo.geo_to_local(lat_deg, lon_deg)
-        ns = max(0, round(t_s * 1e9))
+        ns = self._ns(t_s)
         stamp = f'{{"sec":{ns // 1_000_000_000},"nsec":{ns % 1_000_000_000}}}'
         fix = (
             f'{{"timestamp":{stamp},"frame_id":"vehicle_{vehicle.sysid}",'
@@ -681,7 +732,8 @@ class McapMissionLog:
                 "indices": [],
             }
             metadata = [{"key": "sysid", "value": str(v.sysid)}]
-            text = json.dumps(_entity(t_s, f"track/{v.sysid}", lines=[line], metadata=metadata))
+            entity = _entity(self._ns(t_s), f"track/{v.sysid}", lines=[line], metadata=metadata)
+            text = json.dumps(entity)
             # The points are kept as JSON text: splice them in instead of encoding them again.
             entities.append(text.replace('"points": []', f'"points":[{",".join(v.track)}]', 1))
         update = f'{{"deletions":[],"entities":[{",".join(entities)}]}}'
@@ -706,7 +758,10 @@ class McapMissionLog:
             )
         cells_json = json.dumps([list(c) for c in cells], separators=(",", ":"))
         entity = _entity(
-            t_s, "btps", spheres=spheres, metadata=[{"key": "cells", "value": cells_json}]
+            self._ns(t_s),
+            "btps",
+            spheres=spheres,
+            metadata=[{"key": "cells", "value": cells_json}],
         )
         self._json(BTPS_TOPIC, "foxglove.SceneUpdate", t_s, {"deletions": [], "entities": [entity]})
 
@@ -718,7 +773,7 @@ class McapMissionLog:
         stride = cells.shape[2]
         names = ("state", "red", "green", "blue", "alpha")
         grid = {
-            "timestamp": _stamp(t_s),
+            "timestamp": _stamp(self._ns(t_s)),
             "frame_id": MAP_FRAME,
             "pose": {
                 "position": {"x": 0.0, "y": -rows * self._cell_size_m, "z": 0.0},
@@ -739,13 +794,16 @@ class McapMissionLog:
             self._emit_btps(t_s)
 
     def event(self, t_s: float, text: str, level: str = "info", sysid: int | None = None) -> None:
+        """A ``foxglove.Log`` on ``/events``: ``level`` one of ``LOG_LEVELS``, ``name`` the
+        source (``vehicle N`` or ``gcs``), ``t_s`` the mission seconds."""
         message = {
-            "timestamp": _stamp(t_s),
+            "timestamp": _stamp(self._ns(t_s)),
             "level": LOG_LEVELS.get(level.lower(), 0),
             "message": text,
             "name": f"vehicle {sysid}" if sysid is not None else "gcs",
             "file": "",
             "line": 0,
+            "t_s": float(t_s),
         }
         self._json(EVENTS_TOPIC, "foxglove.Log", t_s, message)
 

@@ -2,7 +2,9 @@
 
 Times are mission seconds (simulated time under a speed-up; iterations in an
 offline run). Both the live mission and the offline simulation write through
-this interface, so that a log looks the same whichever produced it.
+this interface, so that a log looks the same whichever produced it. The live
+mission says when its mission time 0 is (``start``): the MCAP log stamps its
+messages in UTC from there (:mod:`gcs.mcap_log`).
 """
 
 from __future__ import annotations
@@ -17,6 +19,9 @@ from planner.grid import Cell, CellState, Direction
 
 
 class MissionLog(Protocol):
+    def start(self, unix_s: float | None = None) -> None:
+        """Mission time 0 is now (or ``unix_s``, the wall clock in Unix seconds)."""
+
     def raw(self, sysid: int, outgoing: bool, t_s: float, frame: bytes) -> None:
         """One MAVLink frame exactly as it crossed the wire."""
 
@@ -53,6 +58,9 @@ class MissionLog(Protocol):
 
 class NullLog:
     """Logs nothing: for runs without ``--out``."""
+
+    def start(self, unix_s: float | None = None) -> None:
+        pass
 
     def raw(self, sysid: int, outgoing: bool, t_s: float, frame: bytes) -> None:
         pass

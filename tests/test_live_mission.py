@@ -331,7 +331,7 @@ def test_listening_beyond_loopback_needs_to_be_asked_for(
     # Asked for: it listens (and, with no vehicle there, hears nothing).
     args = ["run", str(mission), "--quiet", "--heartbeat-timeout", "0.2", "--allow-remote"]
     assert main(args) == 1
-    assert "no heartbeat from system 1 within 0.2 s" in capsys.readouterr().err
+    assert "no heartbeat within 0.2 s from any of the 1 vehicle(s)" in capsys.readouterr().err
 
 
 DEMO = Path(__file__).resolve().parents[1] / "missions" / "demo.yaml"

@@ -3,18 +3,21 @@
 from __future__ import annotations
 
 import json
+import re
+import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 from mcap.reader import make_reader
+from mcap.writer import Writer
 
 from gcs.cli import main
 from gcs.commands.plan import LOG_NAME
 from gcs.figures import BATTERY_PNG, COVERAGE_PNG, EXPLORED_PNG, PATH_LENGTH_PNG
-from gcs.log_reader import LogError, read_contents, read_log, reconstruct
-from gcs.mcap_log import McapMissionLog, codes_from_grid, grid_codes
+from gcs.log_reader import LogError, mission_s, read_contents, read_log, reconstruct
+from gcs.mcap_log import SCHEMAS, McapMissionLog, codes_from_grid, grid_codes
 from gcs.mission import Mission
 from gcs.report import report_dict
 from gcs.result import RunResult
@@ -22,6 +25,7 @@ from gcs.simulate import simulate
 from sitl_mock import mapgen
 from sitl_mock.maps import to_ascii
 from tests.checks import make_mission
+from tests.test_live_mission import SMALL, write_mission
 from vehicles.geo import GeoFrame
 
 PNGS = (COVERAGE_PNG, PATH_LENGTH_PNG, BATTERY_PNG, EXPLORED_PNG)
@@ -248,3 +252,171 @@ def test_gcs_report_rejects_bad_files(
     assert "Traceback" not in err
     with pytest.raises(LogError):
         read_log(path)
+
+
+# -- time: UTC stamps, mission seconds kept -------------------------------------------
+
+FRAME = bytes([0xFD, 9, 0, 0, 0, 1, 1, 0, 0, 0]) + bytes(11)
+
+
+def _messages(path: Path) -> list[tuple[str, Any]]:
+    with open(path, "rb") as handle:
+        return [(ch.topic, m) for _, ch, m in make_reader(handle).iter_messages()]
+
+
+def _ns(stamp: dict[str, int]) -> int:
+    return stamp["sec"] * 1_000_000_000 + stamp["nsec"]
+
+
+def test_stamps_are_utc_from_the_mission_start(tmp_path: Path) -> None:
+    """log_time, publish_time and the messages' own timestamps are the wall clock at
+    mission time 0 plus the mission time; the mission seconds stay in the payloads."""
+    mission = _mission()
+    path = tmp_path / "utc.mcap"
+    opened = 1_700_000_000.0
+    started = opened + 12.5  # the live mission's clock starts once the planner is compiled
+    log = _open_log(path, mission, started_unix_s=opened)
+    log.start(started)
+    log.agent_state(2.5, 1, (23, 12), 99.0, "exploring")
+    log.event(3.0, "vehicle 1 link lost", "warning", 1)
+    log.raw(1, False, 3.5, FRAME)
+    log.coverage(4.0, np.zeros(mission.map.shape, np.int8), np.zeros(mission.map.shape, bool))
+    log.close()
+    start_ns = 1_700_000_012_500_000_000
+    messages = _messages(path)
+    metas = [json.loads(m.data) for topic, m in messages if topic == "/run/meta"]
+    assert [m["started_unix_ns"] for m in metas] == [1_700_000_000_000_000_000, start_ns]
+    assert metas[-1]["started_unix_s"] == started
+    times = {topic: m for topic, m in messages}
+    for topic, t_s in (
+        ("/vehicle/1/battery", 2.5),
+        ("/vehicle/1/fix", 2.5),
+        ("/vehicle/1/pose", 2.5),
+        ("/events", 3.0),
+        ("/mavlink/1/in", 3.5),
+        ("/map", 4.0),
+    ):
+        message = times[topic]
+        assert message.log_time == message.publish_time == start_ns + round(t_s * 1e9), topic
+        if not topic.startswith("/mavlink/"):
+            data = json.loads(message.data)
+            if "timestamp" in data:
+                assert _ns(data["timestamp"]) == message.log_time, topic
+    event = json.loads(times["/events"].data)
+    assert (event["t_s"], event["level"], event["name"]) == (3.0, 3, "vehicle 1")
+    contents = read_contents(path)
+    assert [(e.t_s, e.text) for e in contents.events] == [(3.0, "vehicle 1 link lost")]
+    assert contents.states[1][0].t_s == 2.5
+    assert mission_s(contents, times["/mavlink/1/in"].log_time) == 3.5
+    assert contents.meta is not None and contents.meta["started_unix_ns"] == start_ns
+
+
+def test_a_log_stamped_in_mission_time_still_reads(tmp_path: Path) -> None:
+    """Logs written before the UTC stamps had log_time = mission time, and events without
+    ``t_s``: their events keep their mission seconds (``gcs report``, ``--resume``)."""
+    path = tmp_path / "old.mcap"
+    origin = {"lat_deg": 47.0, "lon_deg": 8.0, "alt_m": 0.0}
+    meta = {
+        "mission": "old",
+        "shape": [2, 2],
+        "cell_size_m": 1.0,
+        "charger": [1, 1],
+        "reserve_pct": 20.0,
+        "origin": origin,
+        "started_unix_s": 1_700_000_000.0,
+    }
+    event = {
+        "timestamp": {"sec": 4, "nsec": 0},
+        "level": 4,
+        "message": "lost: vehicle 1",
+        "name": "vehicle 1",
+        "file": "",
+        "line": 0,
+    }
+    records = [
+        ("/run/meta", "staying_alive.RunMeta", 0, meta),
+        ("/events", "foxglove.Log", 4, event),
+    ]
+    with open(path, "wb") as handle:
+        writer = Writer(handle)
+        writer.start()
+        for k, (topic, schema, t_s, data) in enumerate(records):
+            definition = json.dumps(SCHEMAS[schema]).encode()
+            channel = writer.register_channel(
+                topic, "json", writer.register_schema(schema, "jsonschema", definition)
+            )
+            ns = t_s * 1_000_000_000
+            writer.add_message(channel, ns, json.dumps(data).encode(), ns, k)
+        writer.finish()
+    contents = read_contents(path)
+    assert [(e.t_s, e.kind, e.sysid) for e in contents.events] == [(4.0, "lost", 1)]
+
+
+def _screen_events(out: str) -> list[tuple[int, str]]:
+    """The operator's messages of a run's output: (mission seconds, text), those stamped."""
+    found = []
+    for line in out.splitlines():
+        match = re.match(r"^\[(\d+):(\d\d)\] (.*?)\s*$", line)
+        if match:
+            found.append((60 * int(match[1]) + int(match[2]), match[3]))
+    return found
+
+
+@pytest.mark.timeout(120)
+def test_a_live_run_logs_what_the_operator_saw_in_utc(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``gcs run --sim`` with the link cut for a while and a battery that needs one
+    charge: the link lost and back, the vehicle's own texts, the charge and the parking
+    are events in the log, stamped in UTC within the run's wall window from the mission
+    start, and every message the display showed is in the log at its mission time."""
+    monkeypatch.setenv("COLUMNS", "300")  # no message wrapped in the captured output
+    mission = write_mission(tmp_path, SMALL, [{"type": "rover"}], energy=0.9)
+    out = tmp_path / "out"
+    before = time.time_ns()
+    code = main(
+        [
+            "run", str(mission), "--sim", "--speedup", "40", "--time-limit", "900",
+            "--sim-cut", "1:30:40", "--lost-after", "120", "--out", str(out),
+        ]
+    )  # fmt: skip
+    after = time.time_ns()
+    screen = capsys.readouterr().out
+    assert code == 0, screen
+    assert not screen.startswith("\n") and "\n\n\n" not in screen
+    path = out / LOG_NAME
+    contents = read_contents(path)
+    assert contents.meta is not None
+    started = contents.meta["started_unix_ns"]
+    assert before <= started <= after
+    events = {e.text: e for e in contents.events}
+
+    def event(prefix: str) -> Any:
+        found = [e for text, e in events.items() if text.startswith(prefix)]
+        assert found, (prefix, sorted(events))
+        return found[0]
+
+    lost, back = event("vehicle 1 link lost"), event("vehicle 1 link is back after")
+    assert (lost.level, lost.name) == (3, "vehicle 1")
+    assert back.level == 2 and lost.t_s < back.t_s
+    assert event("vehicle 1 says: Battery 1 is low").level == 3  # a WARNING
+    assert event("vehicle 1 says: Arming motors").level == 2  # an INFO: the log only
+    assert event("vehicle 1 charging from").t_s < event("vehicle 1 charged to").t_s
+    assert event("vehicle 1 is home, parked and disarmed").level == 2
+    # UTC: the mission start plus the mission time, within what the run's wall time allows.
+    mission_ns_max = (after - before) * 40
+    for topic, message in _messages(path):
+        if topic == "/events":
+            t_s = json.loads(message.data)["t_s"]
+            assert message.log_time == started + round(t_s * 1e9)
+            assert started <= message.log_time <= started + mission_ns_max
+    # What the screen said is what the log says, at the same mission time.
+    shown = _screen_events(screen)
+    assert any("link lost" in text for _, text in shown)
+    logged: dict[str, list[float]] = {}
+    for e in contents.events:
+        logged.setdefault(e.text, []).append(e.t_s)
+    for t_s, text in shown:
+        assert text in logged, (text, sorted(logged))
+        # The screen shows whole seconds: the log's time is in that second (or just after).
+        assert any(abs(t - t_s - 0.5) <= 1.0 for t in logged[text]), (text, logged[text], t_s)

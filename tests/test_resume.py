@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from gcs.bench_faults import log_loss_s, stop
-from gcs.live.resume import ResumeError, load_resume_point
+from gcs.live.resume import ResumeError, ResumePoint, load_resume_point, resumed_text
 from gcs.log_reader import read_contents
 from gcs.mission import load_mission
 from planner.coordinator import ActionKind, Coordinator
@@ -96,6 +96,32 @@ def test_restore_refuses_another_shape() -> None:
     coordinator = _fresh((5, 5), (4, 2))
     with pytest.raises(ValueError, match="shape"):
         coordinator.restore(np.zeros((4, 4), np.int8), np.zeros((4, 4), bool), [])
+
+
+def _point(covered: int, last_t_s: float) -> ResumePoint:
+    cells = np.zeros((20, 20), dtype=bool)
+    cells.flat[:covered] = True
+    return ResumePoint(
+        source=Path("out/mission.mcap"),
+        known=np.zeros((20, 20), dtype=np.int8),
+        covered=cells,
+        btps=(),
+        vehicles={},
+        last_t_s=last_t_s,
+        crashed=False,
+    )
+
+
+def test_the_resume_message_says_plainly_what_is_kept() -> None:
+    assert resumed_text(_point(320, 63.4), 320) == (
+        "resumed from mission.mcap (its log ends at mission time 1:03): 320 covered cells "
+        "are kept, none is covered again"
+    )
+    assert resumed_text(_point(320, 125.0), 300) == (
+        "resumed from mission.mcap (its log ends at mission time 2:05): 300 covered cells "
+        "are kept; 20 more it covered will be covered again, as what was sensed there did "
+        "not reach the log"
+    )
 
 
 # -- the CLI ---------------------------------------------------------------------------

@@ -63,7 +63,38 @@ log = logging.getLogger(__name__)
 _FOREVER_S = 1e9
 #: Range readings asked for again at most this often when the vehicle turned while taking them.
 SENSING_TRIES = 4
-_WARNING_SEVERITY = 4  # MAV_SEVERITY_WARNING
+_WARNING_SEVERITY = mavlink.MAV_SEVERITY_WARNING
+_ERROR_SEVERITY = mavlink.MAV_SEVERITY_ERROR
+
+
+def log_level(severity: int) -> str:
+    """The mission log's level (``gcs.mcap_log.LOG_LEVELS``) of a STATUSTEXT severity:
+    EMERGENCY, ALERT and CRITICAL are fatal, ERROR an error, WARNING a warning, NOTICE
+    and INFO information, DEBUG debug."""
+    if severity <= mavlink.MAV_SEVERITY_CRITICAL:
+        return "fatal"
+    if severity == _ERROR_SEVERITY:
+        return "error"
+    if severity == _WARNING_SEVERITY:
+        return "warning"
+    return "debug" if severity >= mavlink.MAV_SEVERITY_DEBUG else "info"
+
+
+def announce(
+    planner: SharedPlanner,
+    text: str,
+    level: Level = Level.INFO,
+    sysid: int | None = None,
+    log_as: str | None = None,
+) -> None:
+    """Show ``text`` to the operator and write it in the mission log, at the same mission
+    time: the one way a mission event reaches both, so that what the screen said can be
+    found in the log (Foxglove's Log panel). ``log_as``: the log's level when finer than
+    the screen's (a vehicle's CRITICAL is fatal there). Nothing is awaited: the display
+    prints a line, the log adds a message to its buffer (written out at most once a
+    second, and never again once it failed)."""
+    planner.notify(text, level, sysid)
+    planner.log.event(planner.t_s, text, log_as or level.value, sysid)
 
 
 @dataclass(frozen=True)
@@ -139,8 +170,13 @@ class Agent:
     def charger(self) -> Cell:
         return self.planner.coordinator.belief.charger
 
-    def _tell(self, text: str, level: Level = Level.INFO) -> None:
-        self.planner.notify(f"vehicle {self.id} {text}", level, self.id)
+    def _tell(self, text: str, level: Level = Level.INFO, log_as: str | None = None) -> None:
+        announce(self.planner, f"vehicle {self.id} {text}", level, self.id, log_as)
+
+    @property
+    def _moves(self) -> str:
+        """How the vehicle goes: a copter flies, a rover drives."""
+        return "flies" if self.pilot.flies else "drives"
 
     # -- the task ------------------------------------------------------------------------
 
@@ -234,6 +270,8 @@ class Agent:
 
     async def _execute(self, action: Action) -> Action | None:
         """Carry out an action; returns a follow-up action already decided, or None."""
+        if action.kind != ActionKind.CHARGE:
+            self._charge_ended()
         if action.kind == ActionKind.MOVE:
             assert action.to is not None
             mode = self.planner.mode(self.id)
@@ -260,7 +298,6 @@ class Agent:
                         # make): the rest of this trip is stepped, cell by cell.
                         self._step_home = True
                         raise
-            self._pad = None
             await self._step(action.to)
             return None
         if action.kind == ActionKind.CHARGE:
@@ -282,7 +319,12 @@ class Agent:
                     continue
                 before = self.view.phase
                 self.view.phase = Phase.LINK_LOST
-                self._tell("link lost: held out of planning", Level.WARNING)
+                lost_at = self.pilot.clock.now()
+                self._tell(
+                    f"link lost: held out of planning (declared lost after "
+                    f"{self.settings.lost_after_s:g} s)",
+                    Level.WARNING,
+                )
                 try:
                     await self.link.wait_for(
                         Topic.LINK,
@@ -294,9 +336,20 @@ class Agent:
                     main.cancel()
                     return
                 self.view.phase = before
-                self._tell("link is back")
+                self._tell(f"link is back after {self._since(lost_at)}{self._mode_now()}")
         finally:
             await events.aclose()  # type: ignore[attr-defined]
+
+    def _since(self, then: float) -> str:
+        return f"{self.pilot.clock.now() - then:.0f} s"
+
+    def _mode_now(self) -> str:
+        """``; in HOLD, armed``: what the vehicle is in, as its heartbeat says (its own
+        failsafe may have changed it while the link was down)."""
+        status = self.link.status
+        if status is None:
+            return ""
+        return f"; in {status.mode_name}, {'armed' if status.armed else 'disarmed'}"
 
     async def _link_up(self) -> None:
         if not self.link.is_up:
@@ -340,22 +393,31 @@ class Agent:
             await updates.aclose()  # type: ignore[attr-defined]
 
     async def _relay_statustext(self) -> None:
-        """The vehicle's own warnings (STATUSTEXT up to MAV_SEVERITY_WARNING) for the operator,
-        each text once per ``repeat_text_s`` (ArduPilot repeats its pre-arm refusals every
-        time arming is retried)."""
+        """What the vehicle says (STATUSTEXT), as ``vehicle N says: ...``. Every text goes
+        to the mission log at its severity (``log_level``). The operator is shown its
+        warnings and worse, and whatever it says of a failsafe (ArduPilot Rover clears
+        its GCS failsafe at INFO), each text once per ``repeat_text_s`` (ArduPilot
+        repeats its pre-arm refusals every time arming is retried)."""
         texts = self.link.stream(Topic.STATUSTEXT)
         told: dict[str, float] = {}
         clock = self.pilot.clock
         try:
             async for text in texts:
-                if text.severity > _WARNING_SEVERITY:
-                    continue
+                said = f"vehicle {self.id} says: {text.text}"
+                shown = text.severity <= _WARNING_SEVERITY or "failsafe" in text.text.lower()
                 now = clock.now()
-                if now - told.get(text.text, -math.inf) < self.settings.repeat_text_s:
-                    continue
-                told[text.text] = now
-                level = Level.WARNING if text.severity == _WARNING_SEVERITY else Level.ERROR
-                self._tell(f"says: {text.text}", level)
+                if shown and now - told.get(text.text, -math.inf) >= self.settings.repeat_text_s:
+                    told[text.text] = now
+                    if text.severity <= _ERROR_SEVERITY:
+                        level = Level.ERROR
+                    elif text.severity == _WARNING_SEVERITY:
+                        level = Level.WARNING
+                    else:
+                        level = Level.INFO
+                    announce(self.planner, said, level, self.id, log_level(text.severity))
+                else:
+                    planner = self.planner
+                    planner.log.event(planner.t_s, said, log_level(text.severity), self.id)
         finally:
             await texts.aclose()  # type: ignore[attr-defined]
 
@@ -466,9 +528,9 @@ class Agent:
         route = await self.pilot.start_route(cells, land=True)
         self.view.phase = Phase.FLYING_HOME
         if route.uploaded:
-            self._tell(f"flies {len(cells)} cells home in AUTO")
+            self._tell(f"{self._moves} {len(cells)} cells home in AUTO")
         else:
-            self._tell(f"flies on home in AUTO ({len(cells)} cells, the route on board)")
+            self._tell(f"{self._moves} on home in AUTO ({len(cells)} cells, the route on board)")
         first_seq = route.first_seq
         previous = self.planner.coordinator.cell_of(self.id)
         heading = None
@@ -533,7 +595,10 @@ class Agent:
                 how=self.spec.charging,
             )
             self._pad_risen = False
-            self._tell(f"charging from {start:.0f} % (about {self._pad.expected_s:.0f} s)")
+            self._tell(
+                f"charging from {start:.0f} % to {self._pad.target_pct:.0f} % "
+                f"(about {self._pad.expected_s:.0f} s)"
+            )
         stay = self._pad
         update = await self.link.wait_for(
             Topic.BATTERY,
@@ -569,8 +634,17 @@ class Agent:
             raise LinkError(
                 f"the battery telemetry does not show the reset to {pct:.0f} %"
             ) from None
-        self._tell(f"charged: the autopilot was told its battery is at {pct:.0f} %")
+        self._tell(f"told its autopilot the battery is at {pct:.0f} % (MAV_CMD_BATTERY_RESET)")
         return float(update.remaining_pct)
+
+    def _charge_ended(self) -> None:
+        """The planner no longer has the vehicle charge: say how the stay on the pad ended."""
+        stay, self._pad = self._pad, None
+        if stay is None:
+            return
+        pct = self.pilot.battery_pct
+        level = "" if pct is None else f" to {pct:.0f} %"
+        self._tell(f"charged{level} ({self._since(stay.started_s)} on the pad)")
 
     async def _wait(self) -> None:
         if self.planner.coordinator.cell_of(self.id) == self.charger and (
@@ -595,6 +669,7 @@ class Agent:
             changed |= await self.planner.changed.wait(clock.to_real(max(timeout, 0.0)))
 
     async def _finish(self) -> None:
+        self._charge_ended()
         if self.planner.mode(self.id) == AgentMode.DONE:
             self.view.phase = Phase.PARKING
             cell = self.planner.coordinator.cell_of(self.id)
@@ -646,8 +721,8 @@ async def send_home(agent: Agent, timeout_s: float) -> str:
                 timeout_s,
             )
             await pilot.park(agent.charger)
-            return "flew home and parked"
-        return "flying home in AUTO"
+            return f"{'flew' if pilot.flies else 'drove'} home and parked"
+        return f"{'flying' if pilot.flies else 'driving'} home in AUTO"
     except (LinkError, TimeoutError) as exc:
         with contextlib.suppress(LinkError, TimeoutError):
             return f"could not send home ({describe(exc)}): {await pilot.make_safe()}"

@@ -3,12 +3,19 @@
 Display only: it reads the ``LiveRun`` the mission keeps up to date and
 never talks to a vehicle or the planner. ``quiet`` shows nothing (tests,
 scripts); errors still go to stderr.
+
+Times are mission time, as in the mission log (seconds since the ground station
+connected, on the vehicles' clock: faster than real time under a speed-up, which
+the title says), so that a message seen here is found at the same mission time
+in the log (``t_s`` of its event in Foxglove's Log panel, stamped the wall clock
+at the start plus that time).
 """
 
 from __future__ import annotations
 
 from types import TracebackType
 
+from rich import box
 from rich.console import Console, Group
 from rich.live import Live
 from rich.table import Table
@@ -28,6 +35,35 @@ _PHASE_STYLE = {
     Phase.ABORTED: "red",
 }
 _LEVEL_STYLE = {Level.INFO: "dim", Level.WARNING: "yellow", Level.ERROR: "bold red"}
+
+#: What a rover does where a copter flies.
+_ROVER_PHASE = {Phase.FLYING_HOME: "driving home (AUTO)", Phase.TAKING_OFF: "arming"}
+#: The planner's modes (``AgentMode`` values) in a few words: why the vehicle does what
+#: it does (transit: to a backtracking point, where uncovered cells start; homing: the
+#: coverage is complete).
+_TASK = {
+    "exploring": "exploring",
+    "transit": "to a new area",
+    "returning": "to charge",
+    "charging": "charging",
+    "idle": "idle",
+    "homing": "going home",
+    "done": "done",
+    "lost": "lost",
+}
+#: Header and justification of each column: short, and the table drawn without borders,
+#: so that it fits 80 columns (a terminal's, a pipe's) but for long details (those wrap).
+COLUMNS = (
+    ("vehicle", "left"),
+    ("activity", "left"),
+    ("planner task", "left"),
+    ("cell\n(row, col)", "left"),
+    ("battery", "right"),
+    ("%/m est.", "right"),
+    ("charges", "right"),
+)
+#: The line under the table that says what its two state columns mean.
+LEGEND = "activity: what the vehicle is doing; planner task: what the planner has it do"
 
 
 #: How the display names each reason a frame was thrown away.
@@ -63,16 +99,38 @@ def _rejected_caption(run: LiveRun) -> str | None:
 
 
 def _state(view: VehicleView) -> str:
-    """The phase, and what the vehicle waits for in it (``waiting: GPS fix``)."""
+    """The phase, in a rover's words for a rover, and what the vehicle waits for in it
+    (``connecting: GPS fix``)."""
+    phase = view.phase.value
+    if view.kind == "rover":
+        phase = _ROVER_PHASE.get(view.phase, phase)
     if not view.detail:
-        return view.phase.value
-    return f"{view.phase.value}: {view.detail}"
+        return phase
+    return f"{phase}: {view.detail}"
+
+
+def _task(view: VehicleView) -> str:
+    return _TASK.get(view.mode, view.mode) or "-"
 
 
 def _clock(seconds: float) -> str:
-    m, s = divmod(int(seconds), 60)
+    m, s = divmod(int(max(0.0, seconds)), 60)
     h, m = divmod(m, 60)
     return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
+
+
+def _speed(run: LiveRun) -> str:
+    """`` (10x real time)``: how the mission clock runs, if it is known."""
+    speedup = getattr(run.clock, "speedup", None)
+    if speedup is None:
+        return ""
+    return " (real time)" if speedup == 1 else f" ({speedup:g}x real time)"
+
+
+def mission_time(run: LiveRun) -> float | None:
+    """Mission seconds as the log counts them (None before the planner starts)."""
+    planner = run.planner
+    return None if planner is None else planner.t_s
 
 
 class LiveDisplay:
@@ -96,7 +154,8 @@ class LiveDisplay:
             if level == Level.ERROR:
                 self.errors.print(Text(f"error: {text}"), highlight=False)
             return
-        stamp = _clock(self.run.elapsed_s) if self.run is not None else "-:--"
+        t_s = None if self.run is None else mission_time(self.run)
+        stamp = "-:--" if t_s is None else _clock(t_s)
         line = Text(f"[{stamp}] {text}", style=_LEVEL_STYLE[level])
         if self._live is not None:
             self._live.console.print(line)
@@ -125,6 +184,10 @@ class LiveDisplay:
             self._live.refresh()
             self._live.__exit__(exc_type, exc, tb)
             self._live = None
+            if not self.console.is_terminal:
+                # Rich ends its last table without a newline in a pipe or a file: the
+                # next line written (an error on stderr) would be glued to its border.
+                self.console.line()
 
     # -- drawing ----------------------------------------------------------------------
 
@@ -134,41 +197,36 @@ class LiveDisplay:
             return Text("connecting...")
         table = Table(
             expand=False,
-            title=self._title(run),
-            title_justify="left",
-            caption=_rejected_caption(run),
-            caption_justify="left",
-            caption_style="yellow",
+            box=box.SIMPLE_HEAD,
+            show_edge=False,
+            pad_edge=False,
+            collapse_padding=True,
         )
-        for name, justify in (
-            ("vehicle", "right"),
-            ("type", "left"),
-            ("state", "left"),
-            ("planner", "left"),
-            ("cell", "left"),
-            ("battery", "right"),
-            ("%/m est.", "right"),
-            ("charges", "right"),
-        ):
-            table.add_column(name, justify=justify)  # type: ignore[arg-type]
+        for name, justify in COLUMNS:
+            wraps = name in ("activity", "planner task")
+            table.add_column(name, justify=justify, no_wrap=not wraps)  # type: ignore[arg-type]
         for view in run.views.values():
             battery = "-" if view.battery_pct is None else f"{view.battery_pct:.0f}%"
             energy = "-" if view.energy_pct_per_m is None else f"{view.energy_pct_per_m:.3f}"
             table.add_row(
-                str(view.sysid),
-                view.kind,
+                f"{view.sysid} {view.kind}",
                 Text(_state(view), style=_PHASE_STYLE.get(view.phase, "")),
-                view.mode,
-                "-" if view.cell is None else f"{view.cell[0]},{view.cell[1]}",
+                _task(view),
+                "-" if view.cell is None else f"{view.cell[0]}, {view.cell[1]}",
                 battery,
                 energy,
                 str(view.charges),
             )
-        return table
+        # Above and below the table, not its title and caption: those wrap at its width.
+        below = [Text(LEGEND, style="dim")]
+        rejected = _rejected_caption(run)
+        if rejected is not None:
+            below.append(Text(rejected, style="yellow"))
+        return Group(self._title(run), table, *below)
 
     def _title(self, run: LiveRun) -> Text:
         planner = run.planner
-        elapsed = run.elapsed_s
+        elapsed = run.elapsed_s  # since the vehicles set off: the pace of coverage
         if planner is None:
             return Text(f"{run.mission.name}: getting ready")
         record = planner.record
@@ -180,9 +238,13 @@ class LiveDisplay:
             left = "aborted, going home"
         elif planner.coordinator.coverage_complete:
             left = "coverage complete, going home"
-        elif covered > 1 and elapsed > 0:
-            left = f"~{_clock((free - covered) * elapsed / covered)} to cover the rest"
-        return Text(
-            f"{run.mission.name}: {covered}/{free} cells ({pct:.0f}%), "
-            f"mission time {_clock(elapsed)}, {left}"
-        )
+        else:
+            # At this run's pace (a resumed mission's cells covered before do not count).
+            done = covered - record.covered_at_start
+            if done > 1 and elapsed > 0:
+                left = f"~{_clock((free - covered) * elapsed / done)} to cover the rest"
+        parts = [
+            f"{covered}/{free} cells ({pct:.0f}%)",
+            f"mission time {_clock(planner.t_s)}{_speed(run)}",
+        ]
+        return Text(f"{run.mission.name}: " + ", ".join(parts + ([left] if left else [])))

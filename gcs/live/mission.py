@@ -41,11 +41,11 @@ from dataclasses import dataclass, field
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.errors import EXIT_BAD_INPUT, EXIT_FAILED
-from gcs.live.agent import Agent, AgentSettings, send_home
+from gcs.live.agent import Agent, AgentSettings, announce, send_home
 from gcs.live.energy import EnergyEstimator, EnergySettings, model_prior
 from gcs.live.pilot import Pilot
 from gcs.live.record import MissionRecord
-from gcs.live.resume import ResumePoint
+from gcs.live.resume import ResumePoint, resumed_text
 from gcs.live.shared import Level, Notify, Phase, SharedPlanner, VehicleView
 from gcs.mission import Mission, Sensing, Steering, VehicleSpec
 from gcs.mission_log import MissionLog
@@ -269,6 +269,7 @@ async def run_live(
     links = run.links
     fleet: MockFleet | None = None
     t0 = clock.now()
+    mission_log.start()  # the log's UTC stamps: the wall clock now, plus mission time
 
     def notice(text: str) -> None:  # a stranger on a link, a radio unplugged or back
         notify(text, Level.WARNING, None)
@@ -315,6 +316,7 @@ async def run_live(
             for spec in mission.fleet
         }
         rates = telemetry_rates(mission, options, notice)
+        await _hear_everyone(mission, links, options)
         await asyncio.gather(
             *(
                 _ready(
@@ -361,6 +363,10 @@ def telemetry_rates(
     return rates
 
 
+#: Connections a one-line message names before it says "...".
+SHOWN_CONNECTIONS = 3
+
+
 def _dials(connection: str) -> bool:
     """Whether the ground station's side of ``connection`` connects to a server."""
     return connection.split(":", 1)[0].lower() in ("tcp", "tcpout")
@@ -395,6 +401,59 @@ def _tap(link: VehicleLink, sysid: int, mission_log: MissionLog, clock: Clock, t
         mission_log.raw(sysid, direction == "out", clock.now() - t0, frame)
 
     link.transport.add_tap(tap)
+
+
+async def _hear_everyone(
+    mission: Mission, links: dict[int, VehicleLink], options: LiveOptions
+) -> None:
+    """Wait for every vehicle's first heartbeat at once; refuse the mission naming every
+    vehicle not heard, and what to try."""
+
+    async def heard(link: VehicleLink) -> bool:
+        try:
+            await link.wait_heartbeat(timeout_s=options.heartbeat_timeout_s)
+        except LinkError:
+            return False
+        return True
+
+    answers = await asyncio.gather(*(heard(links[s.sysid]) for s in mission.fleet))
+    silent = [s for s, ok in zip(mission.fleet, answers, strict=True) if not ok]
+    if silent:
+        raise MissionRefused(_not_heard(silent, mission, links, options))
+
+
+def _not_heard(
+    silent: list[VehicleSpec],
+    mission: Mission,
+    links: dict[int, VehicleLink],
+    options: LiveOptions,
+) -> str:
+    """One line: who was not heard, where the station listened, and what to try."""
+    wait = f"no heartbeat within {options.heartbeat_timeout_s:g} s"
+    where = list(dict.fromkeys(s.connection for s in silent))
+    shown = ", ".join(where[:SHOWN_CONNECTIONS]) + (
+        ", ..." if len(where) > SHOWN_CONNECTIONS else ""
+    )
+    refused = sum(links[s.sysid].transport.stats.bad_signatures for s in silent)
+    signatures = (
+        f"; {refused} frame(s) refused for their signature (unsigned, or signed with another key)"
+        if refused
+        else ""
+    )
+    listening = f"(listening on {shown}){signatures}"
+    if len(silent) < len(mission.fleet):
+        ids = ", ".join(str(s.sysid) for s in silent)
+        return (
+            f"{wait} from vehicle(s) {ids} of {len(mission.fleet)} {listening}: the others were "
+            "heard; check those vehicles' links and system ids"
+        )
+    hint = (
+        "the simulated fleet did not start"
+        if options.sim
+        else "nothing is sending there: start the vehicles (or their simulators) first, "
+        "see the README's Real vehicles, or add --sim to fly the built-in simulated fleet"
+    )
+    return f"{wait} from any of the {len(silent)} vehicle(s) {listening}: {hint}"
 
 
 async def _ready(
@@ -673,15 +732,11 @@ async def _fly(
         )
         for v in mission.fleet
     }
-    mission_log.event(planner.t_s, f"mission {mission.name} starts with {len(agents)} vehicles")
+    # Every event from here is shown and logged by ``announce``: the two never differ.
+    count = f"{len(agents)} vehicle{'' if len(agents) == 1 else 's'}"
+    announce(planner, f"mission {mission.name} starts with {count}")
     if resume is not None:
-        text = (
-            f"resumed from {resume.source.name}: {restored} of the {resume.covered_cells} cells "
-            f"it logged covered by {resume.last_t_s:.0f} s (the others are swept again, their "
-            "sensing did not reach the log)"
-        )
-        notify(text, Level.INFO, None)
-        mission_log.event(planner.t_s, text)
+        announce(planner, resumed_text(resume, restored))
     tasks = {sysid: asyncio.ensure_future(agent.run()) for sysid, agent in agents.items()}
     stop = asyncio.ensure_future(abort.wait())
     limit = None if options.time_limit_s is None else run.clock.to_real(options.time_limit_s)
@@ -704,9 +759,12 @@ async def _fly(
             # Home under the planner, which keeps the vehicles out of each other's way,
             # as at the end of a mission; whoever is not home in time is sent directly.
             run.aborted = True
-            why = "aborted by the operator" if abort.is_set() else "time limit reached"
-            notify(f"mission {why}: every vehicle goes home", Level.WARNING, None)
-            mission_log.event(planner.t_s, f"mission {why}", "warning")
+            why = (
+                "aborted by the operator"
+                if abort.is_set()
+                else f"time limit reached ({options.time_limit_s:g} s after the start)"
+            )
+            announce(planner, f"mission {why}: every vehicle goes home", Level.WARNING)
             await planner.recall()
             await asyncio.wait(
                 [t for t in tasks.values() if not t.done()],
@@ -719,11 +777,11 @@ async def _fly(
         await asyncio.gather(*tasks.values(), stop, return_exceptions=True)
     going = [a for a in late if not record.agents[a.id].lost]
     if going:
-        notify(
+        announce(
+            planner,
             f"{len(going)} vehicle(s) not home {options.abort_return_s:g} s after the abort: "
             "each is sent to charge on its own, or held",
             Level.WARNING,
-            None,
         )
         outcomes = await asyncio.gather(
             *(send_home(agent, options.abort_return_s) for agent in going),
@@ -731,7 +789,7 @@ async def _fly(
         )
         for agent, outcome in zip(going, outcomes, strict=True):
             run.views[agent.id].phase = Phase.ABORTED
-            notify(f"vehicle {agent.id}: {outcome}", Level.INFO, agent.id)
+            announce(planner, f"vehicle {agent.id}: {outcome}", Level.INFO, agent.id)
     probe.cancel()
     await asyncio.gather(probe, return_exceptions=True)
     planner.write_coverage()

@@ -83,3 +83,26 @@ def load_resume_point(path: Path, mission: Mission) -> ResumePoint:
         last_t_s=max(times, default=0.0),
         crashed=contents.result is None,
     )
+
+
+def _clock(seconds: float) -> str:
+    m, s = divmod(round(seconds), 60)
+    return f"{m}:{s:02d}"
+
+
+def resumed_text(resume: ResumePoint, kept: int) -> str:
+    """What the operator is told of a resumed mission: how far the earlier run got, and
+    which of its covered cells are covered again (``kept``: those the planner took over;
+    the others' sensing did not reach the log, so the planner cannot count on them)."""
+    logged = resume.covered_cells
+    text = (
+        f"resumed from {resume.source.name} (its log ends at mission time "
+        f"{_clock(resume.last_t_s)}): {kept} covered cells are kept"
+    )
+    if kept >= logged:
+        return text + ", none is covered again"
+    again = logged - kept
+    return (
+        f"{text}; {again} more it covered will be covered again, as what was sensed "
+        f"there did not reach the log"
+    )
