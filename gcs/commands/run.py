@@ -19,6 +19,7 @@ import sys
 from rich.console import Console
 
 from gcs.commands.plan import LOG_NAME, load, open_log, save_outputs
+from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
 from gcs.foxglove_live import LiveView, LiveViewError
 from gcs.keys import load_keys
@@ -204,7 +205,7 @@ def run(args: argparse.Namespace) -> int:
     if not logging.getLogger().handlers:
         # Library warnings (link lost...) reach the operator through the display instead.
         logging.getLogger().addHandler(logging.NullHandler())
-    console = Console(quiet=args.quiet)
+    console = output_console(quiet=args.quiet)
     errors = Console(stderr=True)
     reach = check_range(mission)
     if reach.out_of_range:

@@ -119,15 +119,14 @@ Notify = Callable[[str, Level, int | None], None]
 
 _EVENT_TEXT = {
     EventKind.RETURN: "returns to charge from {cell}",
-    EventKind.CHARGED: "charging",
     EventKind.OUT_OF_RANGE: "cell {cell} is out of range",
-    EventKind.COVERAGE_COMPLETE: "coverage complete: every vehicle goes home",
+    EventKind.COVERAGE_COMPLETE: "coverage complete: every vehicle goes home to park",
     EventKind.CUT_OFF: (
         "coverage stopped: what is left lies beyond the lost vehicle at {cell}, out of "
         "reach while it stands there; every vehicle goes home"
     ),
     EventKind.LOST: "declared lost at {cell}",
-    EventKind.SAFETY_NET: "no BTP left: takes frontier cell {cell}",
+    EventKind.SAFETY_NET: "no backtracking point left: takes the frontier cell {cell}",
 }
 
 
@@ -309,8 +308,9 @@ class SharedPlanner:
         self.coordinator.mark_lost(agent)
         self.record.agents[agent].lost = True
         self.views[agent].phase = Phase.LOST
-        self.notify(f"vehicle {agent} lost: {why}; the others carry on", Level.ERROR, agent)
-        self.log.event(self.t_s, f"vehicle {agent} lost: {why}", "error", agent)
+        text = f"vehicle {agent} lost: {why}; the others carry on"
+        self.notify(text, Level.ERROR, agent)
+        self.log.event(self.t_s, text, "error", agent)
         self._after(agent, AgentMode.LOST, force_coverage=True)
         self.changed.notify()
 
