@@ -77,9 +77,13 @@ class BatterySettings:
     #: Voltage drop per amp drawn. 0 by default: mission energy figures can imply currents
     #: far beyond a real pack's, and ArduPilot's simulated voltage hardly moves either.
     internal_resistance_ohm: float = 0.0
-    low_pct: float = 30.0
-    critical_pct: float = 15.0
-    emergency_pct: float = 5.0
+    #: Remaining charge at which the vehicle reports its battery low, critical and in
+    #: emergency (and says so). 0: never, as ArduPilot by default (BATT_LOW_VOLT and
+    #: BATT_LOW_MAH are 0 on a Rover; a Copter's 10.5 V is an empty 4S pack), so its
+    #: warnings never contradict the station's own reserve.
+    low_pct: float = 0.0
+    critical_pct: float = 0.0
+    emergency_pct: float = 0.0
     #: Every drain is multiplied by ``1 + U(-noise_fraction, +noise_fraction)``.
     noise_fraction: float = 0.0
     sags: tuple[BatterySag, ...] = ()

@@ -377,7 +377,8 @@ def test_a_live_run_logs_what_the_operator_saw_in_utc(
     code = main(
         [
             "run", str(mission), "--sim", "--speedup", "40", "--time-limit", "900",
-            "--sim-cut", "1:30:40", "--lost-after", "120", "--out", str(out),
+            "--sim-cut", "1:30:40", "--lost-after", "120", "--sim-sag", "20:2",
+            "--out", str(out),
         ]
     )  # fmt: skip
     after = time.time_ns()
@@ -399,7 +400,7 @@ def test_a_live_run_logs_what_the_operator_saw_in_utc(
     lost, back = event("vehicle 1 link lost"), event("vehicle 1 link is back after")
     assert (lost.level, lost.name) == (3, "vehicle 1")
     assert back.level == 2 and lost.t_s < back.t_s
-    assert event("vehicle 1 says: Battery 1 is low").level == 3  # a WARNING
+    assert event("vehicle 1 says: Battery sag").level == 3  # a WARNING
     assert event("vehicle 1 says: Arming motors").level == 2  # an INFO: the log only
     assert event("vehicle 1 charging from").t_s < event("vehicle 1 charged to").t_s
     assert event("vehicle 1 is home, parked and disarmed").level == 2

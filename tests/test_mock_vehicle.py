@@ -134,8 +134,12 @@ def test_a_self_charging_pack_charges_only_disarmed_on_a_pad() -> None:
     assert v.battery.remaining_pct == pytest.approx(level)
 
 
+#: Battery failsafe levels as a user sets them (ArduPilot's defaults have none).
+THRESHOLDS = {"low_pct": 30.0, "critical_pct": 15.0, "emergency_pct": 5.0}
+
+
 def test_battery_charge_states() -> None:
-    b = Battery(BatterySettings(start_pct=31.0, energy_per_m_pct=1.0))
+    b = Battery(BatterySettings(start_pct=31.0, energy_per_m_pct=1.0, **THRESHOLDS))
     assert b.charge_state is ChargeState.OK
     b.step(1.0, moved_m=2.0, airborne=False, can_charge=False, vehicle_time_s=1.0)
     assert b.charge_state is ChargeState.LOW
@@ -145,11 +149,18 @@ def test_battery_charge_states() -> None:
     assert b.charge_state is ChargeState.EMERGENCY
 
 
+def test_battery_has_no_failsafe_levels_by_default() -> None:
+    b = Battery(BatterySettings(start_pct=10.0, energy_per_m_pct=1.0))
+    b.step(1.0, moved_m=9.0, airborne=False, can_charge=False, vehicle_time_s=1.0)
+    assert b.charge_state is ChargeState.OK
+
+
 def test_battery_failsafe_is_announced_as_ardupilot_does() -> None:
     """ArduPilot says "Battery 1 is low|critical <V> used <mAh>" once per level, as a
     WARNING; a ground station must not take it for an error."""
     world = world_of(["C" + "." * 40])
-    v, events = guided_rover(world, battery=BatterySettings(start_pct=35.0, energy_per_m_pct=1.0))
+    battery = BatterySettings(start_pct=35.0, energy_per_m_pct=1.0, **THRESHOLDS)
+    v, events = guided_rover(world, battery=battery)
     v.goto(*centre(world, (0, 40)))
     run(v, 60.0)
     said = [e for e in events if isinstance(e, StatusText)]
