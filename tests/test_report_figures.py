@@ -180,7 +180,7 @@ def test_print_summary_has_agent_rows() -> None:
     rows = [line for line in text.splitlines() if "12.5" in line or "20.2" in line]
     assert len(rows) >= 2
     labels = dict(summary_rows(result))
-    assert labels["Agents"] == "2 (0 lost)"
+    assert labels["Vehicles"] == "2 (0 lost)"
     assert labels["Result"] == "INCOMPLETE"  # one free cell is uncovered
 
 
