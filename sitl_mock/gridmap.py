@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from planner.grid import Cell
 
@@ -44,5 +43,8 @@ class GridMap:
         start = self.charger if start is None else start
         if not self.is_free(start):
             return np.zeros(self.obstacle.shape, dtype=bool)
+        # Imported here: scipy takes longer to load than the rest of a command's help.
+        from scipy import ndimage
+
         labels, _ = ndimage.label(~self.obstacle)  # 4-connected by default
         return labels == labels[start]

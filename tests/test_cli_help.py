@@ -20,7 +20,14 @@ from gcs.mission import MAX_SYSID
 from gcs.options import bench as bench_options
 from gcs.options import run as run_options
 
-HEAVY = ("matplotlib", "numba", "scipy", "planner.coordinator", "pymavlink.mavutil", "gcs.live")
+HEAVY = (
+    "matplotlib",
+    "numba",
+    "scipy",
+    "planner.coordinator",
+    "pymavlink.mavutil",
+    "gcs.live",
+)
 
 
 def _parsers(
@@ -45,13 +52,17 @@ def test_every_command_is_found() -> None:
 
 
 def test_help_loads_nothing_heavy() -> None:
-    """One child process prints every help and reports the modules it had to load."""
+    """One child process prints every help (``sitl-mock``'s too) and reports the modules
+    it had to load."""
     script = (
         "import contextlib, io, json, sys\n"
         "from gcs import cli\n"
         f"for argv in {[list(a) for a in COMMAND_LINES]!r}:\n"
         "    with contextlib.redirect_stdout(io.StringIO()), contextlib.suppress(SystemExit):\n"
         "        cli.main([*argv, '--help'])\n"
+        "from gcs import sitl_cli\n"
+        "with contextlib.redirect_stdout(io.StringIO()), contextlib.suppress(SystemExit):\n"
+        "    sitl_cli.main(['--help'])\n"
         "print(json.dumps(sorted(sys.modules)))\n"
     )
     out = subprocess.run(
