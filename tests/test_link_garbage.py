@@ -430,7 +430,7 @@ def test_mission_completes_while_a_vehicle_port_is_flooded(tmp_path: Path) -> No
     flooder = Flooder(port, garbage_for_the_ground_station(random.Random(5)))
     flooder.start()
     try:
-        code = run_sim(mission, out)
+        code = run_sim(mission, out, "--keep-ports")  # the port the flood is aimed at
     finally:
         flooder.stop.set()
         flooder.join(timeout=WAIT_S)

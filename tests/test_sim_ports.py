@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from gcs.cli import main
 from gcs.commands.run import on_free_ports
 from gcs.mission import CONNECTION_BASE_PORT, load_mission
 from tests.processes import gcs_process
@@ -94,3 +95,8 @@ async def test_a_port_in_use_names_what_probably_holds_it() -> None:
     text = str(caught.value)
     assert f"UDP port {port} is already in use" in text
     assert "another ground station" in text and f"'ss -ulpn sport = :{port}'" in text
+
+
+def test_keep_ports_needs_sim(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["run", str(write_mission(tmp_path)), "--keep-ports"]) == 2
+    assert capsys.readouterr().err.strip() == "gcs run: --keep-ports needs --sim"

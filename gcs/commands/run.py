@@ -200,7 +200,9 @@ def run(args: argparse.Namespace) -> int:
         mission = on_one_link(mission, args.one_link)
     options = options_from(args, mission)
     ports = None
-    if args.sim:
+    if args.keep_ports and not args.sim:
+        raise UsageError("--keep-ports needs --sim")
+    if args.sim and not args.keep_ports:
         mission, ports = on_free_ports(mission)
     if not logging.getLogger().handlers:
         # Library warnings (link lost...) reach the operator through the display instead.

@@ -36,6 +36,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="start the mission's mock fleet in this process first (loopback MAVLink)",
     )
     p.add_argument(
+        "--keep-ports",
+        action="store_true",
+        help="with --sim: keep the mission's own connections (by default --sim moves them to "
+        "loopback ports free at the start, and prints them), e.g. to point another tool at them",
+    )
+    p.add_argument(
         "--speedup",
         type=float,
         metavar="X",
