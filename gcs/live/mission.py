@@ -35,12 +35,13 @@ import contextlib
 import dataclasses
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
+from typing import TypeVar
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from gcs.errors import EXIT_BAD_INPUT, EXIT_FAILED
+from gcs.errors import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_INTERRUPTED
 from gcs.live.agent import Agent, AgentSettings, announce, send_home
 from gcs.live.energy import EnergyEstimator, EnergySettings, model_prior
 from gcs.live.pilot import Pilot
@@ -316,8 +317,8 @@ async def run_live(
             for spec in mission.fleet
         }
         rates = telemetry_rates(mission, options, notice)
-        await _hear_everyone(mission, links, options)
-        await asyncio.gather(
+        await _unless_aborted(abort, _hear_everyone(mission, links, options))
+        ready = asyncio.gather(
             *(
                 _ready(
                     spec,
@@ -331,6 +332,7 @@ async def run_live(
                 for spec in mission.fleet
             )
         )
+        await _unless_aborted(abort, ready)
         return await _fly(mission, options, run, links, pilots, mission_log, notify, abort, t0)
     finally:
         for link in links.values():
@@ -401,6 +403,28 @@ def _tap(link: VehicleLink, sysid: int, mission_log: MissionLog, clock: Clock, t
         mission_log.raw(sysid, direction == "out", clock.now() - t0, frame)
 
     link.transport.add_tap(tap)
+
+
+T = TypeVar("T")
+
+
+async def _unless_aborted(abort: asyncio.Event, work: Awaitable[T]) -> T:
+    """``work``, or, if the operator aborts first (Ctrl-C), a refusal with the exit status
+    of an interrupt. Before the flight no vehicle is armed: each is left as it was."""
+    task = asyncio.ensure_future(work)
+    stop = asyncio.ensure_future(abort.wait())
+    try:
+        await asyncio.wait({task, stop}, return_when=asyncio.FIRST_COMPLETED)
+    finally:
+        stop.cancel()
+    if not task.done():
+        task.cancel()
+        with contextlib.suppress(asyncio.CancelledError, MissionRefused, LinkError):
+            await task
+        raise MissionRefused(
+            "interrupted before the start: no vehicle was armed", EXIT_INTERRUPTED
+        )
+    return task.result()
 
 
 async def _hear_everyone(
