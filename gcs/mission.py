@@ -216,7 +216,7 @@ def with_connections(mission: Mission, moved: Mapping[str, str]) -> Mission:
 
 _A_MAP_NOT_A_MISSION = (
     "a map, not a mission: give the mission file (YAML) that names it, e.g. a file "
-    "holding the line 'map: <this file>' (see the README's Mission files)"
+    "holding the line 'map: <this file>' (see the README's Mission file reference)"
 )
 
 
@@ -351,12 +351,12 @@ class _Loader:
         charger = self.charger(data.get("charger"), grid)
         if charger is None:
             if not grid.pads:
-                how = (
-                    "set 'charger: [row, col]' (a PNG map cannot mark one)"
+                problem = (
+                    "no charger: a PNG map cannot mark one, so set 'charger: [row, col]'"
                     if Path(file).suffix.lower() in PNG_SUFFIXES
-                    else "mark one in the map or set 'charger'"
+                    else "no charging pad 'C' (mark one in the map or set 'charger')"
                 )
-                raise self.fail("map", f"no charging pad 'C' ({how})")
+                raise self.fail("map", problem)
             charger = grid.charger
         pads = (charger, *(p for p in grid.pads[1:] if p != charger))
         grid = make_map(grid.obstacle, pads)

@@ -118,6 +118,7 @@ def write_report(result: RunResult, out_dir: Path) -> Path:
     text = json.dumps(report_dict(result), indent=2) + "\n"
     fd, tmp_name = tempfile.mkstemp(prefix=".report-", suffix=".json.tmp", dir=out_dir)
     try:
+        os.fchmod(fd, _READABLE & ~_umask())  # mkstemp's 0600: as any file written here
         with os.fdopen(fd, "w", encoding="utf-8") as handle:
             handle.write(text)
             handle.flush()
@@ -127,6 +128,15 @@ def write_report(result: RunResult, out_dir: Path) -> Path:
         Path(tmp_name).unlink(missing_ok=True)
         raise
     return target
+
+
+_READABLE = 0o666
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def _verdict(result: RunResult) -> str:
@@ -163,8 +173,8 @@ def summary_rows(result: RunResult) -> list[tuple[str, str]]:
             f"{result.coverage_pct:.1f} % ({result.covered_cells}/{result.free_cells} free cells)",
         ),
         ("Cells out of battery range", str(result.out_of_range_cells)),
-        ("Total path", f"{result.total_path_m:.1f} m"),
-        ("Of it, home at the end", f"{homing_m(result):.1f} m"),
+        ("Path before the way home", f"{result.total_path_m:.1f} m"),
+        ("Way home at the end", f"{homing_m(result):.1f} m"),
         ("Longest path of one vehicle", f"{result.makespan_m:.1f} m"),
         (_steps_label(result), str(result.iterations)),
         ("Charges", str(charges_total(result))),

@@ -47,6 +47,8 @@ def test_title_tells_covering_from_going_home_and_from_an_abort() -> None:
     assert title(run).plain.endswith(", aborted, going home")  # type: ignore[arg-type]
     run.aborted, run.planner.coordinator.coverage_complete = False, True
     assert title(run).plain.endswith(", coverage complete, going home")  # type: ignore[arg-type]
+    run.views = {1: VehicleView(1, "rover", phase=Phase.DONE)}
+    assert title(run).plain.endswith(", coverage complete, every vehicle parked")  # type: ignore[arg-type]
 
 
 def test_title_at_real_time_and_for_a_resumed_mission() -> None:

@@ -231,7 +231,7 @@ def test_png_map_with_a_charger(tmp_path: Path) -> None:
 
 A_MAP = (
     "a map, not a mission: give the mission file (YAML) that names it, e.g. a file holding "
-    "the line 'map: <this file>' (see the README's Mission files)"
+    "the line 'map: <this file>' (see the README's Mission file reference)"
 )
 # Malformed missions: (mission text, map text or None for the default, expected message).
 BAD: list[tuple[str, str | None, str]] = [
@@ -417,7 +417,7 @@ def test_png_map_needs_a_charger(tmp_path: Path) -> None:
     with pytest.raises(MissionError) as info:
         load_mission(path)
     assert str(info.value) == (
-        f"{path}: map: no charging pad 'C' (set 'charger: [row, col]' (a PNG map cannot mark one))"
+        f"{path}: map: no charger: a PNG map cannot mark one, so set 'charger: [row, col]'"
     )
 
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import io
 import json
+import os
+import stat
 import warnings
 from dataclasses import replace
 from pathlib import Path
@@ -392,3 +394,12 @@ def test_summary_never_says_iterations() -> None:
     labels = [label for label, _ in summary_rows(make_result())]
     assert not any("Iteration" in label for label in labels)
     assert "Plan steps" in labels  # one free cell is left: not "to full coverage"
+
+
+def test_report_json_is_as_readable_as_any_file_written_there(tmp_path: Path) -> None:
+    """Written atomically through a temporary file (mode 0600), then given the mode the
+    umask gives any new file, as the figures and the log have."""
+    path = write_report(make_result(), tmp_path)
+    mask = os.umask(0)
+    os.umask(mask)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~mask

@@ -643,8 +643,13 @@ class Agent:
         if stay is None:
             return
         pct = self.pilot.battery_pct
+        on_pad = f"{self._since(stay.started_s)} on the pad"
+        if pct is not None and pct < stay.target_pct - 1.0:
+            # Coverage complete (or an abort) mid-charge: no more charge is needed.
+            self._tell(f"stops charging at {pct:.0f} % ({on_pad}): no more charge is needed")
+            return
         level = "" if pct is None else f" to {pct:.0f} %"
-        self._tell(f"charged{level} ({self._since(stay.started_s)} on the pad)")
+        self._tell(f"charged{level} ({on_pad})")
 
     async def _wait(self) -> None:
         if self.planner.coordinator.cell_of(self.id) == self.charger and (

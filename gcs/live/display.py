@@ -234,10 +234,16 @@ class LiveDisplay:
         free = max(1, record.free_cells)
         pct = 100.0 * min(covered, free) / free
         left = ""
+        views = run.views.values()
+        parked = bool(views) and all(v.phase in (Phase.DONE, Phase.LOST) for v in views)
         if run.aborted:
-            left = "aborted, going home"
+            left = "aborted, every vehicle parked" if parked else "aborted, going home"
         elif planner.coordinator.coverage_complete:
-            left = "coverage complete, going home"
+            left = (
+                "coverage complete, every vehicle parked"
+                if parked
+                else ("coverage complete, going home")
+            )
         else:
             # At this run's pace (a resumed mission's cells covered before do not count).
             done = covered - record.covered_at_start

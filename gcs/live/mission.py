@@ -263,7 +263,7 @@ async def run_live(
     if on_start is not None:
         on_start(run)
     for view in views.values():
-        view.detail = "the planner compiles"
+        view.detail = "the planner starts (it compiles once after an install)"
     # Before any link opens: compiling takes seconds after an install, and no link may
     # wait on it (numba caches what it compiled, so later runs load it at once).
     await asyncio.to_thread(warm_up_planner)
@@ -421,9 +421,7 @@ async def _unless_aborted(abort: asyncio.Event, work: Awaitable[T]) -> T:
         task.cancel()
         with contextlib.suppress(asyncio.CancelledError, MissionRefused, LinkError):
             await task
-        raise MissionRefused(
-            "interrupted before the start: no vehicle was armed", EXIT_INTERRUPTED
-        )
+        raise MissionRefused("interrupted before the start: no vehicle was armed", EXIT_INTERRUPTED)
     return task.result()
 
 
@@ -475,7 +473,7 @@ def _not_heard(
         "the simulated fleet did not start"
         if options.sim
         else "nothing is sending there: start the vehicles (or their simulators) first, "
-        "see the README's Real vehicles, or add --sim to fly the built-in simulated fleet"
+        "see the README's Flying real vehicles, or add --sim to fly the built-in simulated fleet"
     )
     return f"{wait} from any of the {len(silent)} vehicle(s) {listening}: {hint}"
 
@@ -568,6 +566,11 @@ async def _get_ready(
         if not mission.map.inside(cell):
             raise MissionRefused(f"{who} is on cell {cell}, outside the mission's map")
     else:
+        if not mission.map.inside(cell):
+            raise MissionRefused(
+                f"{who} is at cell {cell}, outside the map: check the mission's 'origin' (the "
+                "north-west corner of cell (0, 0)) and 'cell_size_m'"
+            )
         if cell != mission.charger:
             raise MissionRefused(
                 f"{who} is on cell {cell}, not on the charger {mission.charger}: "
