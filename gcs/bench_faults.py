@@ -159,7 +159,13 @@ def _plain(value: object) -> object:
 def run_case(
     case: FaultCase, mission: Path, args: argparse.Namespace, folder: Path
 ) -> dict[str, Any]:
-    common = ("--quiet", "--seed", str(args.seed), "--speedup", f"{args.speedup:g}")
+    common: tuple[str, ...] = (
+        "--quiet",
+        "--seed",
+        str(args.seed),
+        "--speedup",
+        f"{args.speedup:g}",
+    )
     common += ("--lost-after", f"{LOST_AFTER_S:g}")
     row: dict[str, Any] = {
         "fault": case.name,

@@ -30,6 +30,7 @@ from rich.table import Table
 from gcs.bench_cli import write_json
 from gcs.errors import EXIT_OK, UsageError
 from gcs.mission import MAX_SYSID, Mission, MissionError, load_mission
+from gcs.mock_fleet import mock_fleet_configs
 from gcs.options.bench import (
     MAVLINK_ITEMS,
     MAVLINK_LOSS_PCT,
@@ -38,7 +39,6 @@ from gcs.options.bench import (
     MAVLINK_WINDOW_S,
 )
 from gcs.percentile import percentile
-from gcs.sitl_cli import mock_fleet_configs
 from sitl_mock import telemetry
 from sitl_mock.faults import LinkFaults, VehicleFaults
 from sitl_mock.fleet import MockFleet
@@ -48,6 +48,7 @@ from vehicles.errors import LinkError
 from vehicles.link import LinkSettings, VehicleLink
 from vehicles.mission_items import MissionItem, same_items
 from vehicles.mission_protocol import MissionSettings
+from vehicles.transport import MavlinkTransport
 
 #: Rate a vehicle must achieve, as a share of its configured rate, to keep up.
 KEEP_UP_RATIO = 0.9
@@ -135,6 +136,7 @@ async def bench_transfer(
         "udpin:127.0.0.1:0", target_system=1, settings=LinkSettings(mission=timers.link)
     )
     try:
+        assert isinstance(link.transport, MavlinkTransport)  # the link's own port
         assert link.transport.local_address is not None
         base = mock_fleet_configs(mission)[0]
         config = dataclasses.replace(

@@ -7,7 +7,8 @@ What it measures, as the operator reads it: ``gcs bench perf --help``
 from __future__ import annotations
 
 import argparse
-import json
+import asyncio
+import logging
 import multiprocessing
 import platform
 import resource
@@ -26,8 +27,14 @@ from gcs.bench_cli import chosen, parse_settings, positive_numbers, write_json
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.generated_missions import GENERATORS, MAP_SEED, RESERVE_PCT, case_mission
+from gcs.live.mission import LiveOptions, MissionRefused, run_live
+from gcs.live.shared import Level
 from gcs.machine_pace import reference_seconds
+from gcs.mission import Mission, load_mission
+from gcs.mission_log import NullLog
 from gcs.options.bench import LOOP_BEHIND_MS, PERF_LINKS
+from gcs.report import report_dict
+from gcs.result import RunResult
 from gcs.simulate import SimOptions, planner_settings, simulate
 from planner import native
 from sitl_mock import mapgen
@@ -202,6 +209,10 @@ def live_map(vehicles: int) -> GridMap:
     return mapgen.open_field(side, side, MAP_SEED)
 
 
+#: Mission seconds after which a live case is stopped (everyone sent home).
+LIVE_TIME_LIMIT_S = 3600.0
+
+
 def write_live_mission(folder: Path, vehicles: int, links: str = "own") -> Path:
     grid = live_map(vehicles)
     ports = free_loopback_udp_ports(vehicles if links == "own" else 1) * (
@@ -225,35 +236,22 @@ def write_live_mission(folder: Path, vehicles: int, links: str = "own") -> Path:
 
 
 def run_live_case(vehicles: int, speedup: float, links: str = "own") -> dict[str, Any]:
-    from gcs.cli import main  # the real CLI; imported here, as gcs.cli registers this bench
-
+    """One live mission through the mission API, as ``gcs run --sim`` flies it (the mock
+    fleet in this process), without a log: the figures of its report."""
+    if not logging.getLogger().handlers:
+        # Library warnings (a link lost...) are the run's own business here.
+        logging.getLogger().addHandler(logging.NullHandler())
     with tempfile.TemporaryDirectory(prefix="gcs-bench-perf-") as tmp:
-        folder = Path(tmp)
-        mission = write_live_mission(folder, vehicles, links)
-        out = folder / "out"
+        mission = load_mission(write_live_mission(Path(tmp), vehicles, links))
+        options = LiveOptions(sim=True, speedup=speedup, time_limit_s=LIVE_TIME_LIMIT_S)
         t0 = time.perf_counter()
-        code = main(
-            [
-                "run",
-                str(mission),
-                "--sim",
-                "--quiet",
-                "--speedup",
-                f"{speedup:g}",
-                "--out",
-                str(out),
-                "--time-limit",
-                "3600",
-            ]
-        )
+        try:
+            result = asyncio.run(_fly(mission, options))
+        except MissionRefused as exc:
+            return {"vehicles": vehicles, "links": links, "error": str(exc)}
         wall = time.perf_counter() - t0
-        if not (out / "report.json").exists():
-            return {
-                "vehicles": vehicles,
-                "links": links,
-                "error": f"gcs run exited {code} without a report",
-            }
-        r = json.loads((out / "report.json").read_text())
+    r = report_dict(result)
+    code = EXIT_OK if result.complete else EXIT_FAILED
     return {
         "vehicles": vehicles,
         "links": links,
@@ -271,6 +269,13 @@ def run_live_case(vehicles: int, speedup: float, links: str = "own") -> dict[str
         "cpu_per_vehicle": round(r["cpu_s_per_s"] / vehicles, 4),
         "fell_behind": r["loop_lag_ms_p99"] > LOOP_BEHIND_MS,
     }
+
+
+async def _fly(mission: Mission, options: LiveOptions) -> RunResult:
+    def quiet(_text: str, _level: Level, _sysid: int | None) -> None:
+        pass
+
+    return await run_live(mission, options, NullLog(), quiet, asyncio.Event())
 
 
 def live_table(rows: list[dict[str, Any]], speedup: float) -> Table:

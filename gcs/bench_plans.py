@@ -29,11 +29,15 @@ from gcs.bench_cli import (
 )
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
-from gcs.generated_missions import case_mission
+from gcs.generated_missions import MapMaker, case_mission
 from gcs.simulate import SimOptions, planner_settings, simulate
 from sitl_mock import mapgen
 
-GENERATORS = {"rooms": mapgen.rooms, "caves": mapgen.caves, "open": mapgen.open_field}
+GENERATORS: dict[str, MapMaker] = {
+    "rooms": mapgen.rooms,
+    "caves": mapgen.caves,
+    "open": mapgen.open_field,
+}
 
 
 @dataclass(frozen=True)

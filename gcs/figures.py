@@ -31,6 +31,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.ticker import FixedLocator, MaxNLocator
+from numpy.typing import ArrayLike
 
 from gcs.log_reader import LogContents, LogError, VehicleState, read_contents
 from gcs.result import AgentTrace, RunResult
@@ -401,8 +402,8 @@ def _metre_axes(ax: Axes, result: RunResult) -> None:
     for axis in (ax.xaxis, ax.yaxis):
         axis.set_major_locator(MaxNLocator(integer=True, steps=[1, 2, 5, 10]))
     if max(rows, cols) <= GRIDLINE_MAX_CELLS:
-        ax.xaxis.set_minor_locator(FixedLocator(np.arange(cols + 1) * size))
-        ax.yaxis.set_minor_locator(FixedLocator(-np.arange(rows + 1) * size))
+        ax.xaxis.set_minor_locator(FixedLocator([c * size for c in range(cols + 1)]))
+        ax.yaxis.set_minor_locator(FixedLocator([-r * size for r in range(rows + 1)]))
         ax.grid(which="minor", color="0.8", linewidth=0.3)
         ax.tick_params(which="minor", length=0)
     ax.set_xlabel("east [m] (0, 0: the map's north-west corner)")
@@ -634,9 +635,14 @@ def explored_plot(result: RunResult, clock: Timeline | None) -> Figure:
     _time_axis(ax, clock)
     ax.set_ylim(0, free * 1.05)
     ax.set_ylabel("covered cells")
-    pct = ax.secondary_yaxis(
-        "right", functions=(lambda c: 100.0 * c / free, lambda p: p * free / 100.0)
-    )
+
+    def to_pct(cells: ArrayLike) -> ArrayLike:
+        return 100.0 * np.asarray(cells) / free
+
+    def to_cells(pct: ArrayLike) -> ArrayLike:
+        return np.asarray(pct) * free / 100.0
+
+    pct = ax.secondary_yaxis("right", functions=(to_pct, to_cells))
     pct.set_ylabel("covered [% of the free cells]")
     handles = [
         Line2D([], [], color="tab:green", linewidth=1.5, label="covered cells"),

@@ -7,6 +7,7 @@ usable charge, so that every vehicle has to come back to charge.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from gcs.mission import (
@@ -22,7 +23,13 @@ from gcs.preflight import charger_distances
 from sitl_mock import mapgen
 from sitl_mock.gridmap import GridMap
 
-GENERATORS = {"rooms": mapgen.rooms, "building": mapgen.building, "open": mapgen.open_field}
+#: A map of a kind: (height, width, seed) -> map.
+MapMaker = Callable[[int, int, int], GridMap]
+GENERATORS: dict[str, MapMaker] = {
+    "rooms": mapgen.rooms,
+    "building": mapgen.building,
+    "open": mapgen.open_field,
+}
 MAP_SEED = 1
 RESERVE_PCT = 20.0
 #: A round trip to the farthest cell costs this share of the usable charge.

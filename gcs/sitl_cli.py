@@ -23,88 +23,15 @@ import sys
 from collections.abc import Sequence
 
 from gcs.errors import EXIT_BAD_INPUT, EXIT_OK
-from gcs.mission import Charging, Mission, MissionError, Sensing, VehicleSpec, load_mission
-from sitl_mock.battery import BatterySettings
-from sitl_mock.connection import ConnectionStringError, mirror, parse_mock_side
-from sitl_mock.drive import SKID_COAST_M_S2, DriveSettings, Steering
-from sitl_mock.endpoint import LinkSettings
+from gcs.mission import Mission, MissionError, load_mission
+from gcs.mock_fleet import FLEET_GCS_FAILSAFE, STARTUP_DELAY_S, TCP_PORT_STEP, mock_fleet_configs
+from sitl_mock.connection import ConnectionStringError, parse_mock_side
 from sitl_mock.failsafe import FailsafeAction, GcsFailsafe
 from sitl_mock.fleet import MockFleet, MockVehicleConfig
-from sitl_mock.modes import VehicleKind
-from sitl_mock.vehicle import VehicleSettings
 from vehicles.clock import ScaledClock
-from vehicles.keyfile import KeyFile, KeyFileError, load_key_file, loose_permissions
+from vehicles.keyfile import KeyFileError, load_key_file, loose_permissions
 
 PROG = "sitl-mock"
-TCP_PORT_STEP = 10
-#: A mission's fleet holds where it is when its ground station falls silent (ArduPilot
-#: ships the GCS failsafe off): a restarted ground station finds every vehicle where its
-#: log last saw it, in a known mode, and takes over (``gcs run --resume``). A mission in
-#: AUTO (the way home) carries on.
-FLEET_GCS_FAILSAFE = GcsFailsafe(FailsafeAction.HOLD)
-
-
-#: Seconds of vehicle time until a mock vehicle's position estimate (ArduPilot SITL: about
-#: 40 s; short so that a rehearsal starts at once, but long enough that the ground
-#: station's wait for it is always exercised).
-STARTUP_DELAY_S = 2.0
-
-
-def drive_settings(spec: VehicleSpec) -> DriveSettings | None:
-    """How the mock drives a rover of the mission: as ArduPilot Rover with that steering."""
-    if spec.type.value != "rover":
-        return None
-    steering = Steering(spec.steering.value)
-    if steering is Steering.SKID:
-        return DriveSettings(steering=steering, coast_m_s2=SKID_COAST_M_S2)
-    return DriveSettings(steering=steering)
-
-
-def mock_fleet_configs(
-    mission: Mission,
-    tcp_base_port: int | None = None,
-    startup_delay_s: float = 0.0,
-    keys: KeyFile | None = None,
-    *,
-    gcs_failsafe: GcsFailsafe = FLEET_GCS_FAILSAFE,
-    one_link: str | None = None,
-) -> list[MockVehicleConfig]:
-    """One mock vehicle per vehicle of the mission, on the mirror side of its connection
-    (or all on ``one_link``, the mock's side); a vehicle with a key in ``keys`` signs
-    what it sends and refuses unsigned commands."""
-    configs = []
-    for i, spec in enumerate(mission.fleet):
-        if one_link is not None:
-            connection = one_link
-        elif tcp_base_port is None:
-            connection = mirror(spec.connection)
-        else:
-            connection = f"tcpin:127.0.0.1:{tcp_base_port + TCP_PORT_STEP * i}"
-        configs.append(
-            MockVehicleConfig(
-                sysid=spec.sysid,
-                vehicle=VehicleSettings(
-                    kind=VehicleKind(spec.type.value),
-                    speed_m_s=spec.speed_m_s,
-                    startup_delay_s=startup_delay_s,
-                    start_cell=mission.charger,
-                    range_sensing=spec.sensing is Sensing.RANGE,
-                    gcs_failsafe=gcs_failsafe,
-                    drive=drive_settings(spec),
-                ),
-                link=LinkSettings(
-                    connection, signing_key=None if keys is None else keys.keys.get(spec.sysid)
-                ),
-                battery=BatterySettings(
-                    capacity_mah=spec.battery_capacity_mah,
-                    energy_per_m_pct=spec.energy_per_m_pct,
-                    charge_rate_pct_s=spec.charge_rate_pct_s,
-                    # A smart battery reports its own charge; ArduPilot's monitor does not.
-                    pad_charging=spec.charging is Charging.TELEMETRY,
-                ),
-            )
-        )
-    return configs
 
 
 def build_parser() -> argparse.ArgumentParser:

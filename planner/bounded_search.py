@@ -335,7 +335,7 @@ def first_among(
     the same answers but 125 it could not tell). ``stamp`` to ``stamp + 2``
     mark ``seen``.
     """
-    least = np.int64(UNREACHED)
+    least: int = UNREACHED
     for i in range(targets.size):
         at_least = way_at_least(start, targets[i], stride, lands)
         if at_least < least:

@@ -10,14 +10,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, Protocol, TypeAlias
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sitl_mock.modes import Behaviour
 from sitl_mock.vehicle import ARM_FORCE_MAGIC, DISARM_FORCE_MAGIC, CommandRefused, Vehicle
 
-Message = mavlink.MAVLink_message
+Message: TypeAlias = mavlink.MAVLink_message
 
 
 @dataclass(frozen=True)

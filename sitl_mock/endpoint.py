@@ -20,7 +20,7 @@ import random
 from collections import Counter
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeAlias
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
@@ -45,10 +45,11 @@ from sitl_mock.signing import StreamTimestamps, enable_signing
 from sitl_mock.transport import Peer, Transport, make_transport
 from sitl_mock.vehicle import CommandRefused, Vehicle
 from vehicles.clock import Clock
+from vehicles.transport import reset_parser
 
 log = logging.getLogger(__name__)
 
-Message = mavlink.MAVLink_message
+Message: TypeAlias = mavlink.MAVLink_message
 _STATUSTEXT_LEN = 50
 _POSITION_IGNORED = (
     mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE
@@ -438,10 +439,3 @@ class VehicleEndpoint:
 
 def _refusal_severity(text: str) -> Severity:
     return Severity.CRITICAL if text.startswith(("PreArm", "Arm:")) else Severity.WARNING
-
-
-def reset_parser(codec: mavlink.MAVLink) -> None:
-    """Drop whatever partial frame the parser holds (pymavlink has no call for it)."""
-    codec.buf = bytearray()
-    codec.buf_index = 0
-    codec.expected_length = mavlink.HEADER_LEN_V1 + 2

@@ -18,7 +18,7 @@ from enum import IntEnum
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sitl_mock.mission_items import MissionItem
+from vehicles.mission_items import MissionItem
 
 #: FENCE_TYPE's polygon bit.
 POLYGON_TYPE = 4

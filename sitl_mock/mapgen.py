@@ -300,7 +300,7 @@ def caves(
             for dr in (-1, 0, 1)
             for dc in (-1, 0, 1)
         )
-        rock = count >= 5
+        rock = np.asarray(count >= 5)
     return _finish(rock, connect_width=2)
 
 

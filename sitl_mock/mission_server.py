@@ -22,17 +22,17 @@ import asyncio
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any
+from typing import Any, TypeAlias
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sitl_mock.events import Severity, StatusText
 from sitl_mock.faults import MissionFailure, MissionFaultTrigger
-from sitl_mock.mission_items import MissionItem
 from sitl_mock.transport import Peer
 from sitl_mock.vehicle import CommandRefused, Vehicle
+from vehicles.mission_items import MissionItem, MissionItemError
 
-Message = mavlink.MAVLink_message
+Message: TypeAlias = mavlink.MAVLink_message
 
 
 class MissionRequestStyle(Enum):
@@ -217,7 +217,12 @@ class MissionServer:
             self._ack(peer, up.gcs, mavlink.MAV_MISSION_INVALID_SEQUENCE, up.mission_type)
             return
         self._touch_deadline()
-        up.items.append(MissionItem.from_message(msg))
+        try:
+            up.items.append(MissionItem.from_message(msg))
+        except MissionItemError:  # a value its field cannot hold, a place off the Earth
+            self._end_upload()
+            self._ack(peer, up.gcs, mavlink.MAV_MISSION_INVALID, up.mission_type)
+            return
         if up.expected < up.count:
             self._request_next()
             return
@@ -265,9 +270,9 @@ class MissionServer:
             seq = seq + 1 if seq + 1 < len(mission) else max(0, seq - 1)
         item = mission[seq]
         if msg.get_type() == "MISSION_REQUEST_INT":
-            self._send(peer, item.to_int_message(self._codec, gcs[0], gcs[1]))
+            self._send(peer, item.to_message(gcs[0], gcs[1]))
         else:
-            self._send(peer, item.to_float_message(self._codec, gcs[0], gcs[1]))
+            self._send(peer, item.to_float_message(gcs[0], gcs[1]))
 
     # ------------------------------------------------------------------ clear, current
 

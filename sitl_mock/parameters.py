@@ -10,11 +10,13 @@ the sender it did not take.
 
 from __future__ import annotations
 
+from typing import TypeAlias
+
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sitl_mock.vehicle import Vehicle
 
-Message = mavlink.MAVLink_message
+Message: TypeAlias = mavlink.MAVLink_message
 _REAL32 = mavlink.MAV_PARAM_TYPE_REAL32
 #: The parameters a ground station may set: the geofence's, by ``Fence`` field.
 _FENCE_FIELDS = {"FENCE_ENABLE": "enable", "FENCE_TYPE": "kind", "FENCE_ACTION": "action"}

@@ -17,8 +17,8 @@ from typing import Protocol
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sitl_mock.endpoint import reset_parser
 from sitl_mock.transport import Peer
+from vehicles.transport import reset_parser
 
 
 class RadioListener(Protocol):

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import TypeAlias
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
@@ -19,7 +20,7 @@ from sitl_mock.modes import Behaviour
 from sitl_mock.ranging import sector_distances_m
 from sitl_mock.vehicle import Vehicle
 
-Message = mavlink.MAVLink_message
+Message: TypeAlias = mavlink.MAVLink_message
 Builder = Callable[[mavlink.MAVLink, Vehicle], list[Message]]
 
 UINT16_MAX = 65535

@@ -38,10 +38,10 @@ from sitl_mock.events import (
 )
 from sitl_mock.failsafe import FailsafeAction, GcsFailsafe, GcsWatch
 from sitl_mock.fence import Fence, FenceAction
-from sitl_mock.mission_items import MissionItem
 from sitl_mock.modes import PROFILES, Behaviour, KindProfile, VehicleKind
 from sitl_mock.ranging import axis_exit
 from sitl_mock.world import Blocker, BlockReason, World
+from vehicles.mission_items import MissionItem
 
 _EPS_M = 1e-6
 _TIE = 1e-7

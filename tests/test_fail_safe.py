@@ -506,7 +506,7 @@ async def test_a_fenced_rover_stops_at_the_fence_after_the_station_falls_silent(
     toward column 8 (17 m east) and falls silent. ArduPilot holds at the breach; so does
     the mock: the rover ends in HOLD, armed and stopped, at most the roll from its speed
     past the fence (2 m/s rolls about 3 m), short of its target."""
-    from gcs.sitl_cli import mock_fleet_configs
+    from gcs.mock_fleet import mock_fleet_configs
 
     base = mock_fleet_configs(mission)[0].vehicle
     geo, size = mission.geo, mission.cell_size_m

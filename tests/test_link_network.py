@@ -19,7 +19,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.mission import Mission, load_mission
-from gcs.sitl_cli import mock_fleet_configs
+from gcs.mock_fleet import mock_fleet_configs
 from sitl_mock.fleet import MockFleet, MockVehicleConfig
 from sitl_mock.modes import RoverMode
 from tests.serial_cable import SerialCable

@@ -26,12 +26,11 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.mission import Mission, load_mission
-from gcs.sitl_cli import mock_fleet_configs
+from gcs.mock_fleet import mock_fleet_configs
 from planner.grid import Cell
 from sitl_mock.endpoint import VehicleEndpoint
 from sitl_mock.faults import LinkFaults, MissionFailure, MissionFaults, VehicleFaults
 from sitl_mock.fleet import MockFleet, MockVehicleConfig
-from sitl_mock.mission_items import MissionItem as MockMissionItem
 from sitl_mock.mission_server import MissionProtocolSettings
 from sitl_mock.vehicle import Vehicle
 from vehicles.clock import ScaledClock
@@ -236,11 +235,11 @@ def sample_mission(mission: Mission, count: int, seed: int = 0) -> list[MissionI
 
 def install(vehicle: Vehicle, items: list[MissionItem]) -> None:
     """Put a mission straight into the mock's ground truth (bypassing the protocol)."""
-    vehicle.replace_mission([MockMissionItem(**dataclasses.asdict(item)) for item in items])
+    vehicle.replace_mission(items)
 
 
 def truth_items(vehicle: Vehicle) -> list[MissionItem]:
-    return [MissionItem(**dataclasses.asdict(item)) for item in vehicle.mission]
+    return list(vehicle.mission)
 
 
 @pytest.mark.parametrize("kind", KINDS)

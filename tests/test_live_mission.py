@@ -22,7 +22,7 @@ from scipy import ndimage
 from gcs.cli import main
 from gcs.log_reader import read_log
 from gcs.mission import load_mission
-from gcs.sitl_cli import mock_fleet_configs
+from gcs.mock_fleet import mock_fleet_configs
 from planner.grid import CellState
 from sitl_mock.events import StatusText
 from sitl_mock.fleet import MockFleet

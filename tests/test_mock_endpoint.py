@@ -29,12 +29,12 @@ from sitl_mock.faults import (
 )
 from sitl_mock.fleet import MockFleet, MockVehicleConfig
 from sitl_mock.gridmap import GridMap
-from sitl_mock.mission_items import MissionItem
 from sitl_mock.mission_server import MissionProtocolSettings, MissionRequestStyle
 from sitl_mock.modes import CopterMode, RoverMode, VehicleKind
 from sitl_mock.vehicle import VehicleSettings
 from vehicles.clock import ScaledClock
 from vehicles.geo import GeoFrame
+from vehicles.mission_items import MissionItem
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -148,14 +148,14 @@ class MiniGcs(asyncio.DatagramProtocol):
                 if not asked:
                     self.send(self.codec.mission_count_encode(1, 1, len(items), 0))
                 else:  # our last item or its ACK may have been lost: repeat it
-                    self.send(items[-1].to_int_message(self.codec, 1, 1))
+                    self.send(items[-1].to_message(1, 1))
                 continue
             if msg.get_type() == "MISSION_ACK":
                 if msg.type == mavlink.MAV_MISSION_INVALID_SEQUENCE:
                     continue  # a NACK does not end the upload
                 return int(msg.type)
             asked = True
-            self.send(items[msg.seq].to_int_message(self.codec, 1, 1))
+            self.send(items[msg.seq].to_message(1, 1))
         raise TimeoutError("upload did not finish")
 
     async def download(self, retry_s: float = 0.3, deadline_s: float = 30.0) -> list[MissionItem]:

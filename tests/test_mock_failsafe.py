@@ -26,7 +26,8 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.mission import Mission, load_mission
-from gcs.sitl_cli import FLEET_GCS_FAILSAFE, _prepare, build_parser, main, mock_fleet_configs
+from gcs.mock_fleet import FLEET_GCS_FAILSAFE, mock_fleet_configs
+from gcs.sitl_cli import _prepare, build_parser, main
 from planner.grid import Cell
 from sitl_mock.battery import BatterySettings
 from sitl_mock.endpoint import LinkSettings as MockLinkSettings
@@ -35,7 +36,6 @@ from sitl_mock.events import Severity, StatusText, VehicleEvent
 from sitl_mock.failsafe import FailsafeAction, GcsFailsafe
 from sitl_mock.fleet import MockFleet
 from sitl_mock.gridmap import GridMap
-from sitl_mock.mission_items import MissionItem as MockMissionItem
 from sitl_mock.modes import CopterMode, RoverMode, VehicleKind
 from sitl_mock.vehicle import Vehicle, VehicleSettings
 from sitl_mock.world import World
@@ -251,8 +251,8 @@ def test_a_mission_in_auto_carries_on(continue_auto: bool) -> None:
         assert v.cell[1] < 10
 
 
-def _item(seq: int, lat: float, lon: float) -> MockMissionItem:
-    return MockMissionItem(
+def _item(seq: int, lat: float, lon: float) -> MissionItem:
+    return MissionItem(
         seq,
         mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
         mavlink.MAV_CMD_NAV_WAYPOINT,

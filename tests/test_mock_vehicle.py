@@ -19,12 +19,12 @@ from sitl_mock.battery import Battery, BatterySag, BatterySettings, ChargeState
 from sitl_mock.connection import ConnectionStringError, mirror, parse_mock_side
 from sitl_mock.events import ItemReached, StatusText, VehicleDied, VehicleEvent
 from sitl_mock.gridmap import GridMap
-from sitl_mock.mission_items import MissionItem
 from sitl_mock.modes import CopterMode, RoverMode, VehicleKind
 from sitl_mock.ranging import ray_distance_m
 from sitl_mock.vehicle import CommandRefused, Vehicle, VehicleSettings
 from sitl_mock.world import World
 from vehicles.geo import GeoFrame
+from vehicles.mission_items import MissionItem
 
 pytestmark = pytest.mark.timeout(30)
 

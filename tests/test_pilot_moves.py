@@ -60,7 +60,7 @@ def offset_m(pair: Pair, mission: Mission, cell: Cell) -> float:  # noqa: F811
 
 @pytest.fixture
 def base_vehicle(mission: Mission) -> Any:  # noqa: F811
-    from gcs.sitl_cli import mock_fleet_configs
+    from gcs.mock_fleet import mock_fleet_configs
 
     return mock_fleet_configs(mission)[0].vehicle
 

@@ -26,8 +26,8 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.cli import main
 from gcs.mission import load_mission
+from gcs.mock_fleet import mock_fleet_configs
 from gcs.sitl_cli import main as sitl_main
-from gcs.sitl_cli import mock_fleet_configs
 from sitl_mock.fleet import MockFleet
 from sitl_mock.modes import RoverMode
 from vehicles.clock import ScaledClock

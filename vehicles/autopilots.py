@@ -44,11 +44,18 @@ class SetModeParams:
 
 
 class AutopilotFlavour(Protocol):
-    name: str
-    mav_autopilot: int
-    #: True when mission item 0 is the home position (ArduPilot), so the
-    #: first real item is seq 1.
-    mission_has_home: bool
+    # Read-only (properties), as the frozen dataclasses that implement it hold them.
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def mav_autopilot(self) -> int: ...
+
+    @property
+    def mission_has_home(self) -> bool:
+        """True when mission item 0 is the home position (ArduPilot), so the first real
+        item is seq 1."""
+        ...
 
     def set_mode_params(self, kind: VehicleKind, mode: FlightMode) -> SetModeParams | None:
         """DO_SET_MODE parameters for ``mode``, or None if this vehicle has no such mode."""

@@ -9,6 +9,7 @@ other result raises ``CommandDenied``; silence raises ``CommandTimeout``.
 from __future__ import annotations
 
 import asyncio
+import builtins
 import logging
 from collections import defaultdict
 from collections.abc import Callable
@@ -101,11 +102,11 @@ class CommandSender:
 
     async def _run(
         self,
-        command: int,
-        make: Callable[[int], Message],
+        command: builtins.int,  # builtins: the method ``int`` above hides the type here
+        make: Callable[[builtins.int], Message],
         timeout_s: float | None,
-        retries: int | None,
-        on_progress: Callable[[int], None] | None,
+        retries: builtins.int | None,
+        on_progress: Callable[[builtins.int], None] | None,
     ) -> CommandAck:
         timeout = self.settings.timeout_s if timeout_s is None else timeout_s
         max_retries = self.settings.retries if retries is None else retries

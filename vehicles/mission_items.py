@@ -156,6 +156,11 @@ class MissionItem:
     def y_float(self) -> float:
         return self.y / xy_scale(self.frame)
 
+    @property
+    def has_position(self) -> bool:
+        """A place on the Earth (a global frame and not 0, 0: "no position")."""
+        return self.frame in GLOBAL_FRAMES and (self.x != 0 or self.y != 0)
+
     def with_seq(self, seq: int) -> MissionItem:
         return dataclasses.replace(self, seq=seq)
 
@@ -163,8 +168,20 @@ class MissionItem:
         self, target_system: int, target_component: int
     ) -> mavlink.MAVLink_mission_item_int_message:
         return mavlink.MAVLink_mission_item_int_message(
-            target_system,
-            target_component,
+            target_system, target_component, *self._fields(self.x, self.y)
+        )
+
+    def to_float_message(
+        self, target_system: int, target_component: int
+    ) -> mavlink.MAVLink_mission_item_message:
+        """The old float MISSION_ITEM (x/y in degrees, metres or raw, by frame)."""
+        return mavlink.MAVLink_mission_item_message(
+            target_system, target_component, *self._fields(self.x_float, self.y_float)
+        )
+
+    def _fields(self, x: float, y: float) -> tuple[float, ...]:
+        """The fields both item messages carry after the target, in their order."""
+        return (
             self.seq,
             self.frame,
             self.command,
@@ -174,8 +191,8 @@ class MissionItem:
             self.param2,
             self.param3,
             self.param4,
-            self.x,
-            self.y,
+            x,
+            y,
             self.z,
             self.mission_type,
         )

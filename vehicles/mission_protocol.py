@@ -18,6 +18,7 @@ Follows https://mavlink.io/en/services/mission.html with its default timeouts
 from __future__ import annotations
 
 import asyncio
+import functools
 import logging
 import time
 from collections.abc import Awaitable, Callable, Sequence
@@ -295,7 +296,7 @@ class MissionClient:
 
                 try:
                     item = await send_and_wait(
-                        lambda request=request: self._send(request),
+                        functools.partial(self._send, request),
                         inbox,
                         accept_item,
                         timeout_s=s.item_timeout_s,

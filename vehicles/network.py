@@ -28,6 +28,7 @@ import contextlib
 import logging
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass, field
+from typing import TypeAlias
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
@@ -45,7 +46,7 @@ from vehicles.transport import (
 
 log = logging.getLogger(__name__)
 
-Message = mavlink.MAVLink_message
+Message: TypeAlias = mavlink.MAVLink_message
 
 
 @dataclass(frozen=True)

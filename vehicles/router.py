@@ -13,13 +13,13 @@ import contextlib
 import logging
 from collections import defaultdict
 from collections.abc import AsyncIterator, Callable
-from typing import TypeVar
+from typing import TypeAlias, TypeVar
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 log = logging.getLogger(__name__)
 
-Message = mavlink.MAVLink_message
+Message: TypeAlias = mavlink.MAVLink_message
 Predicate = Callable[[Message], bool]
 Handler = Callable[[Message], None]
 

@@ -77,13 +77,14 @@ def apply_signing(codec: mavlink.MAVLink, config: SigningConfig | None) -> None:
     codec.signing.timestamp = max(codec.signing.timestamp, signing_timestamp())
     codec.signing.allow_unsigned_callback = None if config.require_signed else _accept_unsigned
     # pymavlink calls ``self.check_signature(...)``: an instance attribute replaces it.
-    codec.check_signature = functools.partial(_check_signature, codec)  # type: ignore[method-assign]
+    codec.check_signature = functools.partial(check_signature, codec)  # type: ignore[method-assign]
 
 
-def _check_signature(
+def check_signature(
     codec: mavlink.MAVLink, msgbuf: bytearray, src_system: int, src_component: int
 ) -> bool:
-    """True when ``msgbuf`` carries a good signature newer than its stream's last one."""
+    """True when ``msgbuf`` carries a good signature newer than its stream's last one
+    (the station's links and the mock vehicles both check with this)."""
     signing = codec.signing
     digest = hashlib.sha256(signing.secret_key + bytes(msgbuf[:-6])).digest()[:6]
     if digest != bytes(msgbuf[-6:]):

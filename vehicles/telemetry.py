@@ -16,7 +16,7 @@ from collections import defaultdict
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
-from typing import Any
+from typing import Any, TypeAlias
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
@@ -24,7 +24,7 @@ from vehicles.models import VehicleProfile, profile_from_heartbeat
 from vehicles.modes import FlightMode
 from vehicles.printable import printable
 
-Message = mavlink.MAVLink_message
+Message: TypeAlias = mavlink.MAVLink_message
 UINT16_MAX = 65535
 STREAM_QUEUE_SIZE = 64
 

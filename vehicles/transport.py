@@ -47,8 +47,11 @@ class MessagePort(Protocol):
     """What a vehicle's link reads and writes: a transport of its own, or its share
     of a connection that carries several vehicles (``vehicles.network.SystemPort``)."""
 
-    endpoint: Endpoint
-    stats: TransportStats
+    @property
+    def endpoint(self) -> Endpoint: ...
+
+    @property
+    def stats(self) -> TransportStats: ...
 
     @property
     def closed(self) -> bool: ...
@@ -173,7 +176,7 @@ class MavlinkTransport:
                 ep.device,
                 ep.baud,
                 flow_control=ep.flow_control,
-                on_data=self._feed,
+                on_data=self._feed_serial,
                 on_state=self._device_state,
             )
             await self._serial.open()
@@ -286,6 +289,10 @@ class MavlinkTransport:
             except TransportClosed:
                 return
 
+    def _feed_serial(self, data: bytes) -> None:
+        """Bytes from a serial device (``SerialPort.on_data``)."""
+        self._feed(data)
+
     def _feed(
         self, data: bytes, *, whole_frames: bool = False, source: Address | None = None
     ) -> list[mavlink.MAVLink_message]:
@@ -301,11 +308,11 @@ class MavlinkTransport:
         except Exception as exc:  # pymavlink raises a few things; never let them out
             log.debug("%s: unparsable data: %s", self.endpoint, exc)
             self.stats.bad_frames += 1
-            self._reset_parser()
+            reset_parser(self.codec)
             return []
         if (whole_frames or source is not None) and self.codec.buf_len() > 0:
             self.stats.bad_frames += 1
-            self._reset_parser()
+            reset_parser(self.codec)
         udp_in = source is not None and self.endpoint.kind is EndpointKind.UDP_IN
         if udp_in and not self._take_peer(source, msgs):  # type: ignore[arg-type]
             return []
@@ -340,7 +347,7 @@ class MavlinkTransport:
     def _device_state(self, present: bool) -> None:
         if present:
             self.stats.reconnects += 1  # a serial device opened again after it vanished
-            self._reset_parser()
+            reset_parser(self.codec)
         if self.on_device is not None:
             self.on_device(present)
 
@@ -363,11 +370,6 @@ class MavlinkTransport:
         self._queue.put_nowait(msg)
         return True
 
-    def _reset_parser(self) -> None:
-        self.codec.buf = bytearray()
-        self.codec.buf_index = 0
-        self.codec.expected_length = mavlink.HEADER_LEN_V1 + 2
-
     def _run_taps(self, direction: str, buf: bytes, msg: mavlink.MAVLink_message) -> None:
         for tap in self._taps:
             try:
@@ -386,7 +388,7 @@ class MavlinkTransport:
         if self._writer is not None:  # tcpin: the newest client replaces the old one
             self._writer.close()
         self._writer = writer
-        self._reset_parser()
+        reset_parser(self.codec)
         task = asyncio.get_running_loop().create_task(self._read_stream(reader, reconnect))
         self._tasks.add(task)
         task.add_done_callback(self._tasks.discard)
@@ -461,6 +463,14 @@ def _any_system(_system: int) -> bool:
 def _is_message(msg: mavlink.MAVLink_message) -> bool:
     """A good message, not garbage or an id the dialect does not know."""
     return not isinstance(msg, mavlink.MAVLink_bad_data | mavlink.MAVLink_unknown)
+
+
+def reset_parser(codec: mavlink.MAVLink) -> None:
+    """Drop whatever partial frame the parser holds (pymavlink has no call for it); the
+    mock vehicles' endpoints and radio use it too."""
+    codec.buf = bytearray()
+    codec.buf_index = 0
+    codec.expected_length = mavlink.HEADER_LEN_V1 + 2
 
 
 def _open_failure(endpoint: Endpoint, exc: OSError) -> str:

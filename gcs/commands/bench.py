@@ -130,7 +130,7 @@ def run_paper(args: argparse.Namespace) -> int:
             norm = normalised(result)
             charges = sum(a.charges for a in result.agents) / n
             paper = PAPER_TABLE1.get(n)
-            ms_step = 1e3 * result.planner_s / max(1, result.extra.get("total_iterations", 1))
+            ms_step = 1e3 * result.planner_s / max(1, int(result.extra.get("total_iterations", 1)))
             us_agent_step = (
                 1e6 * result.planner_s / max(1, int(result.extra.get("total_iterations", 1)) * n)
             )
@@ -185,13 +185,13 @@ def run_paper(args: argparse.Namespace) -> int:
     ):
         table2.add_column(column, justify="right")
     bob_free = int(bob.map.reachable().sum())
-    for method, (paths, complete) in PAPER_TABLE2.items():
+    for method, (paper_paths, complete) in PAPER_TABLE2.items():
         table2.add_row(
             f"{method} (paper's figures)",
-            " / ".join(map(str, paths)),
-            str(sum(paths)),
-            f"{sum(paths) / (bob_free - 1):.3f}*",
-            f"{max(paths) / min(paths):.2f}",
+            " / ".join(map(str, paper_paths)),
+            str(sum(paper_paths)),
+            f"{sum(paper_paths) / (bob_free - 1):.3f}*",
+            f"{max(paper_paths) / min(paper_paths):.2f}",
             "yes" if complete else "no",
             "-",
             "-",

@@ -25,12 +25,13 @@ from gcs.foxglove_live import LiveView, LiveViewError
 from gcs.keys import load_keys
 from gcs.live.agent import AgentSettings
 from gcs.live.display import LiveDisplay
-from gcs.live.mission import LiveOptions, MissionRefused, SimFaults, run_live
+from gcs.live.mission import LiveOptions, MissionRefused, run_live
 from gcs.live.resume import ResumeError, load_resume_point
 from gcs.live.shared import Level
 from gcs.mcap_log import SCHEMAS, McapMissionLog
 from gcs.mission import Mission, on_one_link, with_connections
 from gcs.mission_log import MissionLog, NullLog
+from gcs.mock_fleet import SimFaults
 from gcs.options.run import SIM_SPEEDUP
 from gcs.preflight import check_range
 from gcs.report import print_summary

@@ -237,22 +237,22 @@ class Agent:
         failures = 0
         while True:
             await self._link_up()
-            if action is None:
-                action = await self._decide()
+            current = action if action is not None else await self._decide()
+            action = current  # tried again as it is if it fails with the link down
             try:
-                if action.kind == ActionKind.WAIT and self.planner.mode(self.id) in (
+                if current.kind == ActionKind.WAIT and self.planner.mode(self.id) in (
                     AgentMode.DONE,
                     AgentMode.LOST,
                 ):
                     await self._finish()
                     return
-                action = await self._execute(action)
+                action = await self._execute(current)
                 failures = 0
             except (LinkError, TimeoutError) as exc:
                 failures += 1
                 if failures >= self.settings.max_failures:
                     raise AgentLost(f"failed {failures} times in a row ({describe(exc)})") from exc
-                self._tell(f"{action.kind} failed ({describe(exc)})", Level.WARNING)
+                self._tell(f"{current.kind} failed ({describe(exc)})", Level.WARNING)
                 if not self.link.is_up:
                     continue  # the same action again once the link is back
                 with contextlib.suppress(LinkError, TimeoutError):

@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import dataclasses
 import logging
 import time
 from collections.abc import Awaitable, Callable
@@ -50,16 +49,14 @@ from gcs.live.resume import ResumePoint, resumed_text
 from gcs.live.shared import Level, Notify, Phase, SharedPlanner, VehicleView
 from gcs.mission import Mission, Sensing, Steering, VehicleSpec
 from gcs.mission_log import MissionLog
+from gcs.mock_fleet import SimFaults, sim_configs
 from gcs.percentile import percentile
 from gcs.result import RunResult
 from gcs.simulate import planner_settings, prior_map
-from gcs.sitl_cli import STARTUP_DELAY_S, mock_fleet_configs
 from gcs.warm_up import warm_up_planner
 from planner.coordinator import Coordinator
 from planner.settings import AgentSpec
-from sitl_mock.battery import BatterySag
-from sitl_mock.faults import LinkCut, LinkFaults, VehicleFaults
-from sitl_mock.fleet import MockFleet, MockVehicleConfig
+from sitl_mock.fleet import MockFleet
 from vehicles.clock import Clock, ScaledClock
 from vehicles.commands import CommandSettings
 from vehicles.endpoints import Endpoint, EndpointKind, parse_endpoint
@@ -97,25 +94,6 @@ class MissionRefused(Exception):
     def __init__(self, message: str, exit_code: int = EXIT_FAILED) -> None:
         super().__init__(message)
         self.exit_code = exit_code
-
-
-@dataclass(frozen=True)
-class SimFaults:
-    """Faults injected into the mock fleet of a ``--sim`` run (rehearsals and tests)."""
-
-    #: Packet loss in each direction on every link.
-    loss: float = 0.0
-    latency_s: float = 0.0
-    #: Every battery drain is multiplied by 1 + U(-noise, +noise).
-    battery_noise: float = 0.0
-    #: Sudden drops on every vehicle: (vehicle time s, percent).
-    sags: tuple[tuple[float, float], ...] = ()
-    #: Link cuts: (sysid, at s, duration s).
-    cuts: tuple[tuple[int, float, float], ...] = ()
-    #: Extra latency of each packet, uniform in [0, jitter_s].
-    jitter_s: float = 0.0
-    #: Vehicles that lose all power: (sysid, at s).
-    deaths: tuple[tuple[int, float], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -219,33 +197,6 @@ def link_settings(options: LiveOptions, clock: Clock) -> LinkSettings:
             timeout_s=0.4, item_timeout_s=0.15, retries=16, no_space_retry_s=0.5
         ),
     )
-
-
-def sim_configs(
-    mission: Mission, faults: SimFaults, keys: KeyFile | None = None
-) -> list[MockVehicleConfig]:
-    """The mission's mock fleet with the requested faults (and signing keys)."""
-    configs = []
-    for config in mock_fleet_configs(mission, keys=keys, startup_delay_s=STARTUP_DELAY_S):
-        cuts = tuple(LinkCut(at, d) for sysid, at, d in faults.cuts if sysid == config.sysid)
-        link = LinkFaults(
-            loss_to_gcs=faults.loss,
-            loss_from_gcs=faults.loss,
-            latency_s=faults.latency_s,
-            jitter_s=faults.jitter_s,
-            cuts=cuts,
-        )
-        # Power lost: the whole charge gone at once (the vehicle dies and falls silent).
-        deaths = tuple(BatterySag(at, 100.0) for s, at in faults.deaths if s == config.sysid)
-        battery = dataclasses.replace(
-            config.battery,
-            noise_fraction=faults.battery_noise,
-            sags=tuple(BatterySag(at, pct) for at, pct in faults.sags) + deaths,
-        )
-        configs.append(
-            dataclasses.replace(config, battery=battery, faults=VehicleFaults(link=link))
-        )
-    return configs
 
 
 async def run_live(

@@ -186,8 +186,8 @@ class Pilot:
             value = int(await link.read_param(name))
             if value & bits != bits:
                 await link.set_param(name, value | bits)
-        for name, value in params.values.items():
-            await link.set_param(name, value)
+        for name, setting in params.values.items():
+            await link.set_param(name, setting)
 
     # -- time and state --------------------------------------------------------------
 
@@ -416,7 +416,7 @@ class Pilot:
         while True:
             pos = self.position
             done = pos is not None and there(pos)
-            if done and (self.stopped(pos) or self._reached_reports > reports):
+            if pos is not None and done and (self.stopped(pos) or self._reached_reports > reports):
                 return pos
             lost = self._target_lost(pos, (lat, lon), sent, reports, watch)
             if lost:
@@ -499,7 +499,7 @@ class Pilot:
         grace = self.real_s(self.settings.target_echo_s)
         # A report of the target it steers to, made after it had our target.
         reported = heard is not None and echo is not None and heard >= sent + grace
-        if reported:
+        if reported and echo is not None:
             steers_to = self._metres(echo.lat_deg, echo.lon_deg, *target)
             if steers_to > 0.1 * self.geo.cell_size_m:
                 return "it steers to another target"

@@ -1,0 +1,42 @@
+"""The rules the code is held to, checked by the suite itself (the README's test
+command runs them, and so does CI): ruff's lint and format, and mypy over every
+package of the product."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("planner", "vehicles", "sitl_mock", "gcs")
+
+pytestmark = pytest.mark.timeout(300)
+
+
+def _run(*argv: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", *argv],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=280,
+        check=False,
+    )
+
+
+def test_ruff_finds_nothing() -> None:
+    done = _run("ruff", "check", ".")
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_ruff_format_has_nothing_to_change() -> None:
+    done = _run("ruff", "format", "--check", ".")
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_mypy_finds_nothing_in_the_packages(tmp_path: Path) -> None:
+    done = _run("mypy", "--cache-dir", str(tmp_path / "mypy"), *PACKAGES)
+    assert done.returncode == 0, done.stdout + done.stderr
