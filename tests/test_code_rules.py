@@ -40,3 +40,28 @@ def test_ruff_format_has_nothing_to_change() -> None:
 def test_mypy_finds_nothing_in_the_packages(tmp_path: Path) -> None:
     done = _run("mypy", "--cache-dir", str(tmp_path / "mypy"), *PACKAGES)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_the_vehicle_layer_knows_nothing_of_the_planner() -> None:
+    """``vehicles`` (how we talk to a vehicle) imports nothing from ``planner``."""
+    offenders = [
+        str(path.relative_to(ROOT))
+        for path in sorted((ROOT / "vehicles").glob("*.py"))
+        if any(
+            line.startswith(("from planner", "import planner"))
+            for line in path.read_text(encoding="utf-8").splitlines()
+        )
+    ]
+    assert offenders == []
+
+
+def test_the_live_mission_imports_no_command_line() -> None:
+    """``gcs.live`` is the mission, not a command: it imports no CLI module."""
+    cli = ("gcs.cli", "gcs.sitl_cli", "gcs.commands", "gcs.options")
+    offenders = [
+        f"{path.relative_to(ROOT)}: {line}"
+        for path in sorted((ROOT / "gcs" / "live").glob("*.py"))
+        for line in path.read_text(encoding="utf-8").splitlines()
+        if line.startswith(tuple(f"{kind} {m}" for kind in ("from", "import") for m in cli))
+    ]
+    assert offenders == []

@@ -12,7 +12,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from planner.grid import Cell
+#: A grid cell, (row, col): the same pair as ``planner.grid.Cell``, named here so that
+#: the vehicle layer does not depend on the planner.
+Cell = tuple[int, int]
 
 EARTH_RADIUS_M = 6_378_137.0
 
