@@ -8,6 +8,7 @@ which carries one key, so they need the key of the vehicle they address.
 from __future__ import annotations
 
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 
 from gcs.errors import UsageError
@@ -15,16 +16,19 @@ from vehicles.keyfile import KeyFile, KeyFileError, load_key_file, loose_permiss
 from vehicles.signing import SigningConfig
 
 
-def load_keys(path: Path, command: str) -> KeyFile:
-    """The key file at ``path``; a usage error if it cannot be used, a warning on stderr
-    when others than its owner may read it."""
+def load_keys(path: Path, prog: str, fleet: Iterable[int] | None = None) -> KeyFile:
+    """The key file at ``path``; a usage error if it cannot be used (or, given the
+    ``fleet``'s system ids, names a vehicle outside it), a warning on stderr, after
+    ``prog`` ("gcs run", "sitl-mock"), when others than its owner may read it."""
     try:
         keys = load_key_file(path)
+        if fleet is not None:
+            keys.check_fleet(fleet)
     except KeyFileError as exc:
         raise UsageError(str(exc)) from exc
     warning = loose_permissions(path)
     if warning is not None:
-        print(f"gcs {command}: warning: {warning}", file=sys.stderr)
+        print(f"{prog}: warning: {warning}", file=sys.stderr)
     return keys
 
 

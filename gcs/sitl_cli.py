@@ -22,14 +22,14 @@ import signal
 import sys
 from collections.abc import Sequence
 
-from gcs.errors import EXIT_BAD_INPUT, EXIT_OK
+from gcs.errors import EXIT_BAD_INPUT, EXIT_OK, UsageError
+from gcs.keys import load_keys
 from gcs.mission import Mission, MissionError, load_mission
 from gcs.mock_fleet import FLEET_GCS_FAILSAFE, STARTUP_DELAY_S, TCP_PORT_STEP, mock_fleet_configs
 from sitl_mock.connection import ConnectionStringError, parse_mock_side
 from sitl_mock.failsafe import FailsafeAction, GcsFailsafe
 from sitl_mock.fleet import MockFleet, MockVehicleConfig
 from vehicles.clock import ScaledClock
-from vehicles.keyfile import KeyFileError, load_key_file, loose_permissions
 
 PROG = "sitl-mock"
 
@@ -118,11 +118,7 @@ def _prepare(args: argparse.Namespace) -> tuple[Mission, list[MockVehicleConfig]
             raise _BadInput(f"--tcp-base-port {args.tcp_base_port} gives ports out of range")
     keys = None
     if args.keys is not None:
-        keys = load_key_file(args.keys)
-        keys.check_fleet(v.sysid for v in mission.fleet)
-        warning = loose_permissions(args.keys)
-        if warning is not None:
-            print(f"{PROG}: warning: {warning}", file=sys.stderr)
+        keys = load_keys(args.keys, PROG, (v.sysid for v in mission.fleet))
     return mission, mock_fleet_configs(
         mission,
         args.tcp_base_port,
@@ -165,7 +161,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         mission, configs = _prepare(args)
         asyncio.run(_serve(mission, configs, args))
-    except (MissionError, KeyFileError, ConnectionStringError, _BadInput) as exc:
+    except (MissionError, UsageError, ConnectionStringError, _BadInput) as exc:
         print(f"{PROG}: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except OSError as exc:  # a port already in use, for instance

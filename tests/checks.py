@@ -8,7 +8,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
+from gcs.mcap_log import McapMissionLog
 from gcs.mission import (
     Mission,
     Origin,
@@ -124,3 +126,17 @@ def energy_for_round_trips(grid: GridMap, trips: float, reserve_pct: float = 20.
     ``trips`` round trips to the farthest cell (1.0: just one)."""
     far = int(charger_distances(make_mission(grid, 1)).max())
     return (100.0 - reserve_pct) / (2 * far * trips) if far else 1.0
+
+
+def open_mission_log(path: Path, mission: Mission, **options: Any) -> McapMissionLog:
+    """A mission log of ``mission`` at ``path`` (``options``: the log's own settings)."""
+    return McapMissionLog(
+        path,
+        mission_name=mission.name,
+        shape=mission.map.shape,
+        cell_size_m=mission.cell_size_m,
+        charger=mission.charger,
+        geo=mission.geo,
+        reserve_pct=mission.planner.reserve_pct,
+        **options,
+    )

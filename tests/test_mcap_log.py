@@ -17,16 +17,15 @@ from gcs.cli import main
 from gcs.commands.plan import LOG_NAME
 from gcs.figures import BATTERY_PNG, COVERAGE_PNG, EXPLORED_PNG, PATH_LENGTH_PNG
 from gcs.log_reader import LogError, mission_s, read_contents, read_log, reconstruct
-from gcs.mcap_log import SCHEMAS, McapMissionLog, codes_from_grid, grid_codes
+from gcs.mcap_log import SCHEMAS, codes_from_grid, grid_codes
 from gcs.mission import Mission
 from gcs.report import report_dict
 from gcs.result import RunResult
 from gcs.simulate import simulate
 from sitl_mock import mapgen
 from sitl_mock.maps import to_ascii
-from tests.checks import make_mission
+from tests.checks import make_mission, open_mission_log
 from tests.test_live_mission import SMALL, write_mission
-from vehicles.geo import GeoFrame
 
 PNGS = (COVERAGE_PNG, PATH_LENGTH_PNG, BATTERY_PNG, EXPLORED_PNG)
 #: Report keys that measure the machine, not the run.
@@ -39,26 +38,12 @@ def _mission() -> Mission:
     return make_mission(mapgen.rooms(24, 24, 3), 3, ENERGY_PER_M_PCT, name="rooms24")
 
 
-def _open_log(path: Path, mission: Mission, **options: Any) -> McapMissionLog:
-    o = mission.origin
-    return McapMissionLog(
-        path,
-        mission_name=mission.name,
-        shape=mission.map.shape,
-        cell_size_m=mission.cell_size_m,
-        charger=mission.charger,
-        geo=GeoFrame(o.lat_deg, o.lon_deg, o.alt_m, mission.cell_size_m),
-        reserve_pct=mission.planner.reserve_pct,
-        **options,
-    )
-
-
 @pytest.fixture(scope="module")
 def run(tmp_path_factory: pytest.TempPathFactory) -> tuple[RunResult, Path]:
     """One logged run, with small chunks so that a cut file keeps many of them."""
     mission = _mission()
     path = tmp_path_factory.mktemp("log") / LOG_NAME
-    result = simulate(mission, log=_open_log(path, mission, chunk_size=4096))
+    result = simulate(mission, log=open_mission_log(path, mission, chunk_size=4096))
     assert result.complete and sum(a.charges for a in result.agents) > 0
     return result, path
 
@@ -176,7 +161,7 @@ def test_unclosed_log_is_readable(tmp_path: Path) -> None:
     """A ground station that dies never calls close(): what was flushed is there."""
     mission = _mission()
     path = tmp_path / "dead.mcap"
-    log = _open_log(path, mission, flush_s=0.0)
+    log = open_mission_log(path, mission, flush_s=0.0)
     for t in range(5):
         log.agent_state(t, 1, (23, 12 - t), 100.0 - t, "exploring")
         log.raw(1, False, t, b"\xfd\x09\x00\x00\x00\x01\x01\x00\x00\x00")
@@ -195,7 +180,7 @@ def test_raw_frames_keep_their_bytes(tmp_path: Path) -> None:
     mission = _mission()
     path = tmp_path / "raw.mcap"
     frames = [bytes([0xFD, 9, 0, 0, k, 1, 1, 0, 0, 0]) + bytes(11) for k in range(3)]
-    with _open_log(path, mission) as log:
+    with open_mission_log(path, mission) as log:
         for k, frame in enumerate(frames):
             log.raw(7, k % 2 == 1, float(k), frame)
     with open(path, "rb") as handle:
@@ -275,7 +260,7 @@ def test_stamps_are_utc_from_the_mission_start(tmp_path: Path) -> None:
     path = tmp_path / "utc.mcap"
     opened = 1_700_000_000.0
     started = opened + 12.5  # the live mission's clock starts once the planner is compiled
-    log = _open_log(path, mission, started_unix_s=opened)
+    log = open_mission_log(path, mission, started_unix_s=opened)
     log.start(started)
     log.agent_state(2.5, 1, (23, 12), 99.0, "exploring")
     log.event(3.0, "vehicle 1 link lost", "warning", 1)

@@ -31,14 +31,12 @@ from gcs.figures import (
     write_figures,
 )
 from gcs.log_reader import LogContents, VehicleState, read_contents, read_log
-from gcs.mcap_log import McapMissionLog
 from gcs.report import print_summary, report_dict, summary_rows, write_report
 from gcs.result import AgentTrace, BtpRecord, RunResult
 from gcs.simulate import simulate
 from planner.grid import Cell, CellState
 from sitl_mock import mapgen
-from tests.checks import make_mission
-from vehicles.geo import GeoFrame
+from tests.checks import make_mission, open_mission_log
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 MAP = (
@@ -367,17 +365,7 @@ def test_figures_of_a_cut_log_find_the_log_beside_them(tmp_path: Path) -> None:
     beside = tmp_path / "beside"
     beside.mkdir()
     path = beside / MISSION_LOG
-    o = mission.origin
-    log = McapMissionLog(
-        path,
-        mission_name=mission.name,
-        shape=mission.map.shape,
-        cell_size_m=mission.cell_size_m,
-        charger=mission.charger,
-        geo=GeoFrame(o.lat_deg, o.lon_deg, o.alt_m, mission.cell_size_m),
-        reserve_pct=mission.planner.reserve_pct,
-        chunk_size=2048,
-    )
+    log = open_mission_log(path, mission, chunk_size=2048)
     simulate(mission, log=log)
     path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
     result = read_log(path)

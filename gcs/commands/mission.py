@@ -29,7 +29,7 @@ def link_signing(args: argparse.Namespace, sysid: int | None) -> SigningConfig |
     """The signing of ``--keys`` for the vehicle ``sysid`` (None: the file's only key)."""
     if args.keys is None:
         return None
-    return connection_signing(load_keys(args.keys, args.command), sysid)
+    return connection_signing(load_keys(args.keys, f"gcs {args.command}"), sysid)
 
 
 def endpoint_from_args(text: str, args: argparse.Namespace) -> Endpoint:

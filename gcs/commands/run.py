@@ -44,7 +44,7 @@ from vehicles.endpoints import (
     parse_endpoint,
 )
 from vehicles.errors import EndpointError
-from vehicles.keyfile import KeyFile, KeyFileError
+from vehicles.keyfile import KeyFile
 
 #: Connections ``--sim`` names when it moves them to free ports (the rest are counted).
 SHOWN_PORTS = 6
@@ -157,12 +157,7 @@ def keys_from(args: argparse.Namespace, mission: Mission) -> KeyFile | None:
     """The fleet's signing keys of ``--keys``: one for each vehicle it names."""
     if args.keys is None:
         return None
-    keys = load_keys(args.keys, "run")
-    try:
-        keys.check_fleet(v.sysid for v in mission.fleet)
-    except KeyFileError as exc:
-        raise UsageError(str(exc)) from exc
-    return keys
+    return load_keys(args.keys, "gcs run", (v.sysid for v in mission.fleet))
 
 
 def on_free_ports(mission: Mission) -> tuple[Mission, str]:
@@ -181,7 +176,7 @@ def on_free_ports(mission: Mission) -> tuple[Mission, str]:
         for c, port in zip(kinds, ports(len(kinds)), strict=True)
     }
     mission = with_connections(mission, moved)
-    shown = [moved[c] for c in moved][:SHOWN_PORTS]
+    shown = list(moved.values())[:SHOWN_PORTS]
     more = f" and {len(moved) - len(shown)} more" if len(moved) > len(shown) else ""
     return mission, f"simulated vehicles on free loopback ports: {', '.join(shown)}{more}"
 

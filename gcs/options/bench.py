@@ -9,12 +9,11 @@ from pathlib import Path
 from gcs.bench_cli import json_path
 from gcs.options import runs
 from gcs.options.run import LOST_AFTER_S
+from vehicles.keyfile import MAX_SYSID
 
 MISSIONS = Path(__file__).resolve().parents[2] / "missions"
 #: The fleet sizes of the paper's Table 1.
 PAPER_AGENTS = (1, 3, 5, 7, 9, 11)
-#: MAVLink system ids: the most vehicles one fleet can have.
-MAX_SYSID = 255
 
 #: ``gcs bench mavlink``
 MAVLINK_MISSION = MISSIONS / "scenario1.yaml"
