@@ -317,9 +317,13 @@ def _read_log(path: Path | None, result: RunResult) -> LogContents | None:
     if path is None or not Path(path).is_file():
         return None
     try:
-        contents = read_contents(path)
+        return _of_this_run(read_contents(path), result)
     except LogError:
         return None
+
+
+def _of_this_run(contents: LogContents, result: RunResult) -> LogContents | None:
+    """``contents`` if they record this run's mission, else None."""
     meta = contents.meta or {}
     if meta.get("mission") != result.mission or list(meta.get("shape", ())) != list(result.shape):
         return None
@@ -652,17 +656,25 @@ def explored_plot(result: RunResult, clock: Timeline | None) -> Figure:
     return fig
 
 
-def write_figures(result: RunResult, out_dir: Path, log: Path | None = None) -> list[Path]:
+def write_figures(
+    result: RunResult,
+    out_dir: Path,
+    log: Path | None = None,
+    contents: LogContents | None = None,
+) -> list[Path]:
     """Write every figure into ``out_dir``; return their paths in a fixed order.
 
     ``log`` is the run's mission log (default: ``mission.mcap`` in ``out_dir``,
-    where the commands write it); it is read only when the result needs it for
-    its clock (a live run, or one rebuilt from a cut log), and ignored if it
-    records another mission.
+    where the commands write it), or ``contents`` that log as already read; it is
+    read only when the result needs it for its clock (a live run, or one rebuilt
+    from a cut log), and ignored if it records another mission.
     """
     out_dir = Path(out_dir)
-    contents = None
-    if result.extra.get("live") or result.interrupted:
+    if not (result.extra.get("live") or result.interrupted):
+        contents = None
+    elif contents is not None:
+        contents = _of_this_run(contents, result)
+    else:
         contents = _read_log(out_dir / MISSION_LOG if log is None else log, result)
     clock = timeline(result, contents)
     return [

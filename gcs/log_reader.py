@@ -188,7 +188,11 @@ def _btp_cells(update: dict[str, Any]) -> list[Cell]:
 
 def read_log(path: Path | str) -> RunResult:
     """The run a log records: exact from ``/run/result``, else rebuilt from the stream."""
-    contents = read_contents(path)
+    return result_of(read_contents(path), path)
+
+
+def result_of(contents: LogContents, path: Path | str) -> RunResult:
+    """The run that ``contents`` (read from ``path``) records (see ``read_log``)."""
     if contents.result is not None:
         try:
             return result_from_json(contents.result)

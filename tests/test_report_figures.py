@@ -376,6 +376,8 @@ def test_figures_of_a_cut_log_find_the_log_beside_them(tmp_path: Path) -> None:
     elsewhere = write_figures(result, tmp_path / "elsewhere")[3].read_bytes()
     assert with_log != elsewhere  # drawn over steps vs. the "no times" note
     assert write_figures(result, tmp_path / "given", log=path)[3].read_bytes() == with_log
+    read = write_figures(result, tmp_path / "read", contents=read_contents(path))
+    assert read[3].read_bytes() == with_log  # the log as ``gcs report`` already read it
 
 
 def test_summary_never_says_iterations() -> None:

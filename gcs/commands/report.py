@@ -10,19 +10,20 @@ from rich.console import Console
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.figures import write_figures
-from gcs.log_reader import LogError, read_log
+from gcs.log_reader import LogError, read_contents, result_of
 from gcs.report import print_summary, write_report
 
 
 def run(args: argparse.Namespace) -> int:
     try:
-        result = read_log(args.log)
+        contents = read_contents(args.log)  # read once: the report and the figures
+        result = result_of(contents, args.log)
     except LogError as exc:
         raise UsageError(str(exc)) from exc
     out: Path = args.out if args.out is not None else args.log.parent
     try:
         write_report(result, out)
-        write_figures(result, out, log=args.log)
+        write_figures(result, out, contents=contents)
     except OSError as exc:
         raise UsageError(f"--out: cannot write to {out}: {exc.strerror}") from exc
     console = output_console(quiet=args.quiet)
