@@ -21,8 +21,9 @@ from websockets.asyncio.client import ClientConnection, connect
 from gcs.foxglove_live import LiveView
 from gcs.mcap_log import SCHEMAS
 from planner.grid import CellState
+from tests.checks import open_mission_log
 from tests.test_live_mission import SMALL, write_mission
-from tests.test_mcap_log import _mission, _open_log
+from tests.test_mcap_log import _mission
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -59,7 +60,7 @@ async def message_on(
 async def test_the_logs_topics_are_served_live_with_their_schemas(tmp_path: Path) -> None:
     mission = _mission()
     view = LiveView(0, SCHEMAS)
-    log = _open_log(tmp_path / "live.mcap", mission, live=view)
+    log = open_mission_log(tmp_path / "live.mcap", mission, live=view)
     try:
         async with asyncio.timeout(20), connect(view.url, subprotocols=[SUBPROTOCOL]) as ws:
             shape = mission.map.shape
