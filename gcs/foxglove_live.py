@@ -46,8 +46,9 @@ class LiveView:
     def url(self) -> str:
         return f"ws://{HOST}:{self.port}"
 
-    def publish(self, topic: str, schema: str, data: bytes) -> None:
-        """One JSON message of ``schema`` (a name of ``schemas``) on ``topic``, now."""
+    def publish(self, topic: str, schema: str, t_s: float, data: bytes) -> None:
+        """One JSON message of ``schema`` (a name of ``schemas``) on ``topic``, now (a
+        :class:`gcs.mcap_log.LogSink`; ``t_s``, the mission time, is in the message)."""
         channel = self._channels.get(topic)
         if channel is None:
             definition = json.dumps(self._schemas.get(schema, {"type": "object"})).encode()

@@ -87,7 +87,7 @@ class LogContents:
     truncated: bool = False
 
 
-def _records(path: Path) -> Iterator[Schema | Channel | Message | Footer]:
+def mcap_records(path: Path) -> Iterator[Schema | Channel | Message | Footer]:
     """Schemas, channels and messages in file order; raises ``EOFError`` at a cut."""
     with open(path, "rb") as handle:
         if handle.read(len(MCAP0_MAGIC)) != MCAP0_MAGIC:
@@ -118,7 +118,7 @@ def read_contents(path: Path | str) -> LogContents:
     schemas: dict[int, str] = {}
     channels: dict[int, Channel] = {}
     try:
-        for record in _records(path):
+        for record in mcap_records(path):
             if isinstance(record, Schema):
                 schemas[record.id] = record.name
             elif isinstance(record, Channel):

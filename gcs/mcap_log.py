@@ -47,19 +47,17 @@ import json
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import IO, TYPE_CHECKING, Any
+from typing import IO, Any, Protocol
 
 import numpy as np
 from mcap.writer import CompressionType, Writer
 
+from gcs.mission_log import MissionProgress, VehicleStatus
 from gcs.result import AgentTrace, BtpRecord, RunResult
 from planner.grid import Cell, CellState, Direction
 from vehicles.geo import GeoFrame
-
-if TYPE_CHECKING:
-    from gcs.foxglove_live import LiveView
 
 PROFILE = ""
 MAP_FRAME = "map"
@@ -73,10 +71,18 @@ EVENTS_TOPIC = "/events"
 TRACKS_TOPIC = "/scene/tracks"
 BTPS_TOPIC = "/scene/btps"
 TF_TOPIC = "/tf"
+PROGRESS_TOPIC = "/run/progress"
 
 META_SCHEMA = "staying_alive.RunMeta"
 RESULT_SCHEMA = "staying_alive.RunResult"
 BATTERY_SCHEMA = "staying_alive.VehicleState"
+STATUS_SCHEMA = "staying_alive.VehicleStatus"
+PROGRESS_SCHEMA = "staying_alive.MissionProgress"
+
+
+def status_topic(sysid: int) -> str:
+    return f"/vehicle/{sysid}/status"
+
 
 #: Codes of the map grid's ``state`` field: the planner's cell states, and covered.
 GRID_UNKNOWN = int(CellState.UNKNOWN)
@@ -264,6 +270,35 @@ SCHEMAS: dict[str, dict[str, Any]] = {
         started_unix_ns=_int(),
         free_cells=_int(),
     ),
+    STATUS_SCHEMA: _obj(
+        STATUS_SCHEMA,
+        t_s=_num(),
+        sysid=_int(),
+        kind=_str(),
+        activity=_str(),
+        phase=_str(),
+        task=_str(),
+        cell=_arr(_int()),
+        battery_pct=_num(),
+        energy_pct_per_m=_num(),
+        range_m=_num(),
+        home_m=_num(),
+        charges=_int(),
+        way=_arr(_arr(_int())),
+        link_up={"type": "boolean"},
+        heard_s_ago=_num(),
+        rejected_frames=_int(),
+    ),
+    PROGRESS_SCHEMA: _obj(
+        PROGRESS_SCHEMA,
+        t_s=_num(),
+        covered=_int(),
+        free=_int(),
+        pct=_num(),
+        state=_str(),
+        time_left_s=_num(),
+        speedup=_num(),
+    ),
     RESULT_SCHEMA: {"type": "object", "title": RESULT_SCHEMA},
 }
 
@@ -420,6 +455,14 @@ def codes_from_grid(message: dict[str, Any]) -> np.ndarray:
     return np.flipud(cells[:, :, 0]).copy()
 
 
+class LogSink(Protocol):
+    """Something that takes the log's messages as they are written (a live view): every
+    message but the raw MAVLink frames, as the JSON bytes the file gets. Called on the
+    thread that writes the log; it must return at once."""
+
+    def publish(self, topic: str, schema: str, t_s: float, data: bytes) -> None: ...
+
+
 @dataclass
 class _Vehicle:
     """What the log keeps per vehicle between calls."""
@@ -458,12 +501,13 @@ class McapMissionLog:
         flush_s: float = 1.0,
         scene_period_s: float = 5.0,
         scene_fraction: float = 0.05,
-        live: LiveView | None = None,
+        sinks: Sequence[LogSink] = (),
         on_failure: Callable[[str], None] | None = None,
         started_unix_s: float | None = None,
     ) -> None:
-        """``path`` None writes no file: the messages go to ``live`` only (a Foxglove
-        live view, which gets every message but the raw MAVLink ones).
+        """``path`` None writes no file: the messages go to the ``sinks`` only (live
+        views: Foxglove's, the web page's), which get every message but the raw MAVLink
+        ones.
 
         ``started_unix_s``: the wall clock (Unix seconds) at mission time 0; now by
         default, and set again by ``start`` when the mission's clock starts later.
@@ -481,7 +525,10 @@ class McapMissionLog:
                 self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD
             )
             self._writer.start(profile=PROFILE, library="staying-alive-gcs")
-        self._live = live
+        self._sinks = tuple(sinks)
+        #: What was last written of each vehicle's status and of the progress.
+        self._statuses: dict[int, VehicleStatus] = {}
+        self._progress: MissionProgress | None = None
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._vehicles: dict[int, _Vehicle] = {}
@@ -547,8 +594,9 @@ class McapMissionLog:
         if self._closed:
             return
         self._last_t = max(self._last_t, t_s)
-        if self._live is not None and schema is not None:
-            self._live.publish(topic, schema, data)
+        if schema is not None:
+            for sink in self._sinks:
+                sink.publish(topic, schema, t_s, data)
         writer = self._writer
         if writer is None:
             return
@@ -811,6 +859,27 @@ class McapMissionLog:
         self._emit_pending(t_s)
         self._json(RESULT_TOPIC, RESULT_SCHEMA, t_s, result_to_json(result))
         self.flush()
+
+    def status(
+        self, t_s: float, vehicles: Sequence[VehicleStatus], progress: MissionProgress
+    ) -> None:
+        """Each vehicle's status and the mission's progress, those that changed since
+        they were last written (the time since a vehicle was last heard counts only once
+        it reaches 2 s, and then by whole seconds; the time left by tens of seconds)."""
+        if self._closed:
+            return
+        for v in vehicles:
+            heard = v.heard_s_ago
+            key = replace(v, heard_s_ago=None if heard is None or heard < 2 else int(heard))
+            if self._statuses.get(v.sysid) != key:
+                self._statuses[v.sysid] = key
+                self._json(status_topic(v.sysid), STATUS_SCHEMA, t_s, {"t_s": t_s, **asdict(v)})
+        left = progress.time_left_s
+        shown = replace(progress, time_left_s=None if left is None else round(left / 10))
+        if shown != self._progress:
+            self._progress = shown
+            message = {"t_s": t_s, **asdict(progress), "pct": round(progress.pct, 3)}
+            self._json(PROGRESS_TOPIC, PROGRESS_SCHEMA, t_s, message)
 
     def _emit_pending(self, t_s: float) -> None:
         if self._tracks_dirty:

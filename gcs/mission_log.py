@@ -10,12 +10,69 @@ messages in UTC from there (:mod:`gcs.mcap_log`).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 
 from gcs.result import RunResult
 from planner.grid import Cell, CellState, Direction
+
+
+@dataclass(frozen=True)
+class VehicleStatus:
+    """One vehicle as the operator sees it (the live display's row, and the web page's)."""
+
+    sysid: int
+    kind: str
+    #: What the ground station is doing with it (``gcs.live.shared.Phase``), in the
+    #: vehicle's words (a rover drives), with what it waits for: "connecting: GPS fix".
+    activity: str
+    #: ``Phase`` value (connecting, moving, charging, link lost, lost, done...).
+    phase: str
+    #: The planner's mode (exploring, transit, returning, charging, homing, done, lost).
+    task: str
+    cell: Cell | None
+    battery_pct: float | None
+    #: The online estimate of battery per metre, and how far the battery above the
+    #: reserve takes the vehicle at it.
+    energy_pct_per_m: float | None
+    range_m: float | None
+    #: The length of the shortest known way home (to the charger).
+    home_m: float | None
+    charges: int
+    #: The cells the planner has it go through next, first next (at most ``WAY_CELLS``).
+    way: tuple[Cell, ...]
+    link_up: bool
+    #: Mission seconds since anything was heard from it (None: never).
+    heard_s_ago: float | None
+    #: Frames from it thrown away (garbage, bad signatures, implausible values...).
+    rejected_frames: int
+
+
+#: The most cells of a planned way a status carries (a way home across a large map is
+#: thousands of cells; the first ones say where the vehicle goes).
+WAY_CELLS = 400
+
+
+@dataclass(frozen=True)
+class MissionProgress:
+    """The mission as a whole: the live display's title, and the web page's header."""
+
+    covered: int
+    free: int
+    #: What the mission is doing in a few words: "getting ready", "covering", "coverage
+    #: complete, going home", "aborted, every vehicle parked"...
+    state: str
+    #: At this run's pace so far; None when not known (or nothing left).
+    time_left_s: float | None
+    #: Mission seconds per real second (None: not known).
+    speedup: float | None
+
+    @property
+    def pct(self) -> float:
+        free = max(1, self.free)
+        return 100.0 * min(self.covered, free) / free
 
 
 class MissionLog(Protocol):
@@ -48,6 +105,12 @@ class MissionLog(Protocol):
 
     def event(self, t_s: float, text: str, level: str = "info", sysid: int | None = None) -> None:
         """Something an operator should see in the timeline."""
+
+    def status(
+        self, t_s: float, vehicles: Sequence[VehicleStatus], progress: MissionProgress
+    ) -> None:
+        """What the operator sees of each vehicle and of the mission (live runs, a few
+        times a second; only what changed needs to be written)."""
 
     def result(self, t_s: float, result: RunResult) -> None:
         """The run's final result (what report.json and the figures are made of)."""
@@ -86,6 +149,11 @@ class NullLog:
         pass
 
     def event(self, t_s: float, text: str, level: str = "info", sysid: int | None = None) -> None:
+        pass
+
+    def status(
+        self, t_s: float, vehicles: Sequence[VehicleStatus], progress: MissionProgress
+    ) -> None:
         pass
 
     def result(self, t_s: float, result: RunResult) -> None:

@@ -60,7 +60,7 @@ async def message_on(
 async def test_the_logs_topics_are_served_live_with_their_schemas(tmp_path: Path) -> None:
     mission = _mission()
     view = LiveView(0, SCHEMAS)
-    log = open_mission_log(tmp_path / "live.mcap", mission, live=view)
+    log = open_mission_log(tmp_path / "live.mcap", mission, sinks=[view])
     try:
         async with asyncio.timeout(20), connect(view.url, subprotocols=[SUBPROTOCOL]) as ws:
             shape = mission.map.shape

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 from rich.console import Console
@@ -13,8 +14,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.figures import write_figures
-from gcs.foxglove_live import LiveView
-from gcs.mcap_log import McapMissionLog
+from gcs.mcap_log import LogSink, McapMissionLog
 from gcs.mission import Mission, MissionError, load_mission
 from gcs.mission_log import MissionLog
 from gcs.preflight import check_range
@@ -90,9 +90,9 @@ def save_outputs(result: RunResult, out: Path, console: Console, command: str) -
     console.print(f"wrote {out}/report.json, figures and {LOG_NAME}")
 
 
-def open_log(mission: Mission, out: Path | None, live: LiveView | None = None) -> McapMissionLog:
+def open_log(mission: Mission, out: Path | None, sinks: Sequence[LogSink] = ()) -> McapMissionLog:
     """The MCAP mission log in ``out`` (created; None: no file), ready for ``simulate``,
-    also served to ``live``."""
+    also handed to the ``sinks`` (live views) as it is written."""
     try:
         if out is not None:
             out.mkdir(parents=True, exist_ok=True)
@@ -105,7 +105,7 @@ def open_log(mission: Mission, out: Path | None, live: LiveView | None = None) -
             geo=mission.geo,
             reserve_pct=mission.planner.reserve_pct,
             free_cells=int(mission.map.reachable(mission.charger).sum()),
-            live=live,
+            sinks=sinks,
         )
     except OSError as exc:
         raise UsageError(f"--out: cannot write to {out}: {exc.strerror}") from exc

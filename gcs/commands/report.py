@@ -3,15 +3,22 @@
 from __future__ import annotations
 
 import argparse
+import asyncio
+import contextlib
+import sys
 from pathlib import Path
 
 from rich.console import Console
 
+from gcs.commands.web_page import start_web, web_view
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.figures import write_figures
 from gcs.log_reader import LogError, read_contents, result_of
 from gcs.report import print_summary, write_report
+from gcs.web import LOOPBACK
+from gcs.web.replay import load_replay
+from gcs.web.server import WebView
 
 
 def run(args: argparse.Namespace) -> int:
@@ -34,4 +41,27 @@ def run(args: argparse.Namespace) -> int:
         )
     print_summary(result, console)
     console.print(f"wrote {out}/report.json and figures")
-    return EXIT_OK if result.complete else EXIT_FAILED
+    code = EXIT_OK if result.complete else EXIT_FAILED
+    if args.web is not None or args.tiles or args.web_host != LOOPBACK:
+        serve_replay(args, result.mission)
+    return code
+
+
+def serve_replay(args: argparse.Namespace, title: str) -> None:
+    """The log replayed in the browser until Ctrl-C."""
+    try:
+        replay = load_replay(args.log)
+    except LogError as exc:
+        raise UsageError(str(exc)) from exc
+    view = web_view(args, title, replay=replay.data)
+    with contextlib.suppress(KeyboardInterrupt):
+        asyncio.run(_serve(view))
+
+
+async def _serve(view: WebView) -> None:
+    await start_web(view, "report")
+    print("gcs report: Ctrl-C stops", file=sys.stderr, flush=True)
+    try:
+        await asyncio.Event().wait()  # until Ctrl-C
+    finally:
+        await view.close()

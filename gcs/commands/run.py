@@ -19,6 +19,7 @@ import sys
 from rich.console import Console
 
 from gcs.commands.plan import LOG_NAME, load, open_log, save_outputs
+from gcs.commands.web_page import start_web, web_view
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
 from gcs.foxglove_live import LiveView, LiveViewError
@@ -28,7 +29,7 @@ from gcs.live.display import LiveDisplay
 from gcs.live.mission import LiveOptions, MissionRefused, run_live
 from gcs.live.resume import ResumeError, load_resume_point
 from gcs.live.shared import Level
-from gcs.mcap_log import SCHEMAS, McapMissionLog
+from gcs.mcap_log import SCHEMAS, LogSink, McapMissionLog
 from gcs.mission import Mission, on_one_link, with_connections
 from gcs.mission_log import MissionLog, NullLog
 from gcs.mock_fleet import SimFaults
@@ -36,6 +37,9 @@ from gcs.options.run import SIM_SPEEDUP
 from gcs.preflight import check_range
 from gcs.report import print_summary
 from gcs.result import RunResult
+from gcs.web import LOOPBACK
+from gcs.web.feed import LiveFeed
+from gcs.web.server import WebView
 from sitl_mock.connection import ConnectionStringError, mirror
 from vehicles.endpoints import (
     EndpointKind,
@@ -209,9 +213,13 @@ def run(args: argparse.Namespace) -> int:
     if reach.out_of_range:
         errors.print(f"[yellow]warning:[/] {reach.message()}")
     live = open_live(args.live) if args.live is not None else None
+    wants_web = args.web is not None or args.tiles or args.web_host != LOOPBACK
+    feed = LiveFeed() if wants_web else None
+    view = None if feed is None else web_view(args, mission.name, feed=feed)
+    sinks: list[LogSink] = [s for s in (live, feed) if s is not None]
     try:
         mission_log: MissionLog = (
-            open_log(mission, args.out, live) if args.out or live else NullLog()
+            open_log(mission, args.out, sinks) if args.out or sinks else NullLog()
         )
     except UsageError:
         if live is not None:
@@ -228,7 +236,7 @@ def run(args: argparse.Namespace) -> int:
             f"{text}; the mission flies on (Ctrl-C brings every vehicle home)", Level.WARNING, None
         )
     try:
-        result, interrupted = asyncio.run(_main(mission, options, mission_log, display))
+        result, interrupted = asyncio.run(_main(mission, options, mission_log, display, view))
     except MissionRefused as exc:
         print(f"gcs run: {exc}", file=sys.stderr)  # one line, never wrapped
         return exc.exit_code
@@ -249,7 +257,11 @@ def run(args: argparse.Namespace) -> int:
 
 
 async def _main(
-    mission: Mission, options: LiveOptions, mission_log: MissionLog, display: LiveDisplay
+    mission: Mission,
+    options: LiveOptions,
+    mission_log: MissionLog,
+    display: LiveDisplay,
+    view: WebView | None,
 ) -> tuple[RunResult, bool]:
     abort = asyncio.Event()
     loop = asyncio.get_running_loop()
@@ -257,14 +269,28 @@ async def _main(
         # Only in the main thread; the first Ctrl-C aborts safely, a second one kills.
         loop.add_signal_handler(signal.SIGINT, _on_interrupt, loop, abort)
     try:
-        with display:
-            result = await run_live(
-                mission, options, mission_log, display.notify, abort, on_start=display.attach
-            )
+        async with contextlib.AsyncExitStack() as stack:
+            if view is not None:
+                await start_web(view, "run")
+                stack.push_async_callback(view.close)
+            result = await _fly_with_display(mission, options, mission_log, display, abort)
     finally:
         with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):
             loop.remove_signal_handler(signal.SIGINT)
     return result, abort.is_set()
+
+
+async def _fly_with_display(
+    mission: Mission,
+    options: LiveOptions,
+    mission_log: MissionLog,
+    display: LiveDisplay,
+    abort: asyncio.Event,
+) -> RunResult:
+    with display:
+        return await run_live(
+            mission, options, mission_log, display.notify, abort, on_start=display.attach
+        )
 
 
 def _on_interrupt(loop: asyncio.AbstractEventLoop, abort: asyncio.Event) -> None:

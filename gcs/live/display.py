@@ -23,6 +23,7 @@ from rich.text import Text
 
 from gcs.live.mission import LiveRun
 from gcs.live.shared import Level, Phase, VehicleView
+from gcs.live.status import activity, mission_progress
 from vehicles.link import RejectedFrames
 
 REFRESH_HZ = 4
@@ -36,8 +37,6 @@ _PHASE_STYLE = {
 }
 _LEVEL_STYLE = {Level.INFO: "dim", Level.WARNING: "yellow", Level.ERROR: "bold red"}
 
-#: What a rover does where a copter flies.
-_ROVER_PHASE = {Phase.FLYING_HOME: "driving home (AUTO)", Phase.TAKING_OFF: "arming"}
 #: The planner's modes (``AgentMode`` values) in a few words: why the vehicle does what
 #: it does (transit: to a backtracking point, where uncovered cells start; homing: the
 #: coverage is complete).
@@ -96,17 +95,6 @@ def _rejected_caption(run: LiveRun) -> str | None:
             )
             parts.append(f"{name}: {text}")
     return "rejected frames: " + "; ".join(parts) if parts else None
-
-
-def _state(view: VehicleView) -> str:
-    """The phase, in a rover's words for a rover, and what the vehicle waits for in it
-    (``connecting: GPS fix``)."""
-    phase = view.phase.value
-    if view.kind == "rover":
-        phase = _ROVER_PHASE.get(view.phase, phase)
-    if not view.detail:
-        return phase
-    return f"{phase}: {view.detail}"
 
 
 def _task(view: VehicleView) -> str:
@@ -210,7 +198,7 @@ class LiveDisplay:
             energy = "-" if view.energy_pct_per_m is None else f"{view.energy_pct_per_m:.3f}"
             table.add_row(
                 f"{view.sysid} {view.kind}",
-                Text(_state(view), style=_PHASE_STYLE.get(view.phase, "")),
+                Text(activity(view), style=_PHASE_STYLE.get(view.phase, "")),
                 _task(view),
                 "-" if view.cell is None else f"{view.cell[0]}, {view.cell[1]}",
                 battery,
@@ -225,32 +213,16 @@ class LiveDisplay:
         return Group(self._title(run), table, *below)
 
     def _title(self, run: LiveRun) -> Text:
+        progress = mission_progress(run)
         planner = run.planner
-        elapsed = run.elapsed_s  # since the vehicles set off: the pace of coverage
-        if planner is None:
+        if progress is None or planner is None:
             return Text(f"{run.mission.name}: getting ready")
-        record = planner.record
-        covered = planner.coordinator.belief.covered_count
-        free = max(1, record.free_cells)
-        pct = 100.0 * min(covered, free) / free
-        left = ""
-        views = run.views.values()
-        parked = bool(views) and all(v.phase in (Phase.DONE, Phase.LOST) for v in views)
-        if run.aborted:
-            left = "aborted, every vehicle parked" if parked else "aborted, going home"
-        elif planner.coordinator.coverage_complete:
-            left = (
-                "coverage complete, every vehicle parked"
-                if parked
-                else ("coverage complete, going home")
-            )
-        else:
-            # At this run's pace (a resumed mission's cells covered before do not count).
-            done = covered - record.covered_at_start
-            if done > 1 and elapsed > 0:
-                left = f"~{_clock((free - covered) * elapsed / done)} to cover the rest"
         parts = [
-            f"{covered}/{free} cells ({pct:.0f}%)",
+            f"{progress.covered}/{progress.free} cells ({progress.pct:.0f}%)",
             f"mission time {_clock(planner.t_s)}{_speed(run)}",
         ]
-        return Text(f"{run.mission.name}: " + ", ".join(parts + ([left] if left else [])))
+        if progress.time_left_s is not None:
+            parts.append(f"~{_clock(progress.time_left_s)} to cover the rest")
+        elif progress.state != "covering":
+            parts.append(progress.state)
+        return Text(f"{run.mission.name}: " + ", ".join(parts))

@@ -47,8 +47,9 @@ from gcs.live.pilot import Pilot
 from gcs.live.record import MissionRecord
 from gcs.live.resume import ResumePoint, resumed_text
 from gcs.live.shared import Level, Notify, Phase, SharedPlanner, VehicleView
+from gcs.live.status import StatusWatch
 from gcs.mission import Mission, Sensing, Steering, VehicleSpec
-from gcs.mission_log import MissionLog
+from gcs.mission_log import MissionLog, NullLog
 from gcs.mock_fleet import SimFaults, sim_configs
 from gcs.percentile import percentile
 from gcs.result import RunResult
@@ -697,6 +698,10 @@ async def _fly(
     planner.t0 = t0
     run.planner = planner
     run.started_at = run.clock.now()
+    watch = StatusWatch(run)
+    statuses = asyncio.ensure_future(
+        asyncio.sleep(0) if isinstance(mission_log, NullLog) else watch.keep_writing(mission_log)
+    )
     agents = {
         v.sysid: Agent(
             v,
@@ -769,7 +774,9 @@ async def _fly(
             run.views[agent.id].phase = Phase.ABORTED
             announce(planner, f"vehicle {agent.id}: {outcome}", Level.INFO, agent.id)
     probe.cancel()
-    await asyncio.gather(probe, return_exceptions=True)
+    statuses.cancel()
+    await asyncio.gather(probe, statuses, return_exceptions=True)
+    await watch.write(mission_log)
     planner.write_coverage()
     result = record.result(
         coordinator,

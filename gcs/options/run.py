@@ -8,6 +8,7 @@ from pathlib import Path
 from gcs.foxglove_live import DEFAULT_PORT
 from gcs.foxglove_live import HOST as LIVE_HOST
 from gcs.options import runs
+from gcs.options.web import add_web_options
 
 #: Mission seconds a vehicle's link may be down before it is declared lost.
 LOST_AFTER_S = 30.0
@@ -62,6 +63,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         f"WebSocket, ws://{LIVE_HOST}:PORT; default port {DEFAULT_PORT}): the map, vehicles, "
         "tracks, backtracking points, batteries and events of the log, on loopback",
     )
+    add_web_options(p, "the mission as it happens")
     p.add_argument(
         "--allow-remote",
         action="store_true",
