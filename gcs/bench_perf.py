@@ -12,6 +12,7 @@ import logging
 import multiprocessing
 import platform
 import resource
+import statistics
 import tempfile
 import time
 from collections.abc import Callable
@@ -24,6 +25,7 @@ from rich.console import Console
 from rich.table import Table
 
 from gcs.bench_cli import chosen, parse_settings, positive_numbers, write_json
+from gcs.bench_web import Watchers, watched
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.generated_missions import GENERATORS, MAP_SEED, RESERVE_PCT, case_mission
@@ -32,7 +34,7 @@ from gcs.live.shared import Level
 from gcs.machine_pace import reference_seconds
 from gcs.mission import Mission, load_mission
 from gcs.mission_log import NullLog
-from gcs.options.bench import LOOP_BEHIND_MS, PERF_LINKS
+from gcs.options.bench import LIVE_TIME_LIMIT_S, LOOP_BEHIND_MS, PERF_LINKS
 from gcs.report import report_dict
 from gcs.result import RunResult
 from gcs.simulate import SimOptions, planner_settings, simulate
@@ -51,6 +53,9 @@ PROGRESS_EVERY_S = 1.0
 #: latency at the 99th percentile.
 GOAL_SIDE, GOAL_AGENTS, GOAL_WALL_S, GOAL_PEAK_MB = 1000, 50, 60.0, 2048
 GOAL_VEHICLES, GOAL_P99_MS = 64, 20.0
+#: The web page watched by several clients may cost the live mission at most this much
+#: decision latency (p99, with over without).
+GOAL_WEB_RATIO = 1.10
 #: Map kinds judged against the planner's goal as a stretch beyond the goal's own
 #: maps (rooms and corridors, open ground): the maze, whose ways are 7 times the
 #: Manhattan distance.
@@ -209,10 +214,6 @@ def live_map(vehicles: int) -> GridMap:
     return mapgen.open_field(side, side, MAP_SEED)
 
 
-#: Mission seconds after which a live case is stopped (everyone sent home).
-LIVE_TIME_LIMIT_S = 3600.0
-
-
 def write_live_mission(folder: Path, vehicles: int, links: str = "own") -> Path:
     grid = live_map(vehicles)
     ports = free_loopback_udp_ports(vehicles if links == "own" else 1) * (
@@ -235,26 +236,38 @@ def write_live_mission(folder: Path, vehicles: int, links: str = "own") -> Path:
     return path
 
 
-def run_live_case(vehicles: int, speedup: float, links: str = "own") -> dict[str, Any]:
+def run_live_case(
+    vehicles: int,
+    speedup: float,
+    links: str = "own",
+    web_clients: int = 0,
+    time_limit_s: float = LIVE_TIME_LIMIT_S,
+) -> dict[str, Any]:
     """One live mission through the mission API, as ``gcs run --sim`` flies it (the mock
-    fleet in this process), without a log: the figures of its report."""
+    fleet in this process), without a log, or with the web page served to
+    ``web_clients`` readers (``gcs.bench_web``): the figures of its report."""
     if not logging.getLogger().handlers:
         # Library warnings (a link lost...) are the run's own business here.
         logging.getLogger().addHandler(logging.NullHandler())
+    row: dict[str, Any] = {"vehicles": vehicles, "links": links, "web_clients": web_clients}
     with tempfile.TemporaryDirectory(prefix="gcs-bench-perf-") as tmp:
         mission = load_mission(write_live_mission(Path(tmp), vehicles, links))
-        options = LiveOptions(sim=True, speedup=speedup, time_limit_s=LIVE_TIME_LIMIT_S)
+        options = LiveOptions(sim=True, speedup=speedup, time_limit_s=time_limit_s)
         t0 = time.perf_counter()
         try:
-            result = asyncio.run(_fly(mission, options))
+            result, watchers = asyncio.run(_fly(mission, options, web_clients))
         except MissionRefused as exc:
-            return {"vehicles": vehicles, "links": links, "error": str(exc)}
+            return {**row, "error": str(exc)}
         wall = time.perf_counter() - t0
     r = report_dict(result)
     code = EXIT_OK if result.complete else EXIT_FAILED
+    if watchers is not None:
+        row["web_updates"] = watchers.updates
+        row["web_mb"] = watchers.megabytes
+        row["web_dropped"] = watchers.dropped
+        row["web_clients_cpu_s"] = watchers.cpu_s
     return {
-        "vehicles": vehicles,
-        "links": links,
+        **row,
         "free_cells": r["free_cells"],
         "exit": code,
         "wall_s": round(wall, 1),
@@ -271,11 +284,17 @@ def run_live_case(vehicles: int, speedup: float, links: str = "own") -> dict[str
     }
 
 
-async def _fly(mission: Mission, options: LiveOptions) -> RunResult:
+async def _fly(
+    mission: Mission, options: LiveOptions, web_clients: int
+) -> tuple[RunResult, Watchers | None]:
     def quiet(_text: str, _level: Level, _sysid: int | None) -> None:
         pass
 
-    return await run_live(mission, options, NullLog(), quiet, asyncio.Event())
+    if not web_clients:
+        return await run_live(mission, options, NullLog(), quiet, asyncio.Event()), None
+    async with watched(mission, web_clients) as (log, watchers):
+        result = await run_live(mission, options, log, quiet, asyncio.Event())
+    return result, watchers
 
 
 def live_table(rows: list[dict[str, Any]], speedup: float) -> Table:
@@ -283,6 +302,7 @@ def live_table(rows: list[dict[str, Any]], speedup: float) -> Table:
     for name in (
         "vehicles",
         "links",
+        "web clients",
         "free cells",
         "coverage %",
         "lost",
@@ -298,11 +318,12 @@ def live_table(rows: list[dict[str, Any]], speedup: float) -> Table:
         table.add_column(name, justify="right")
     for r in rows:
         if "error" in r:
-            table.add_row(str(r["vehicles"]), r["links"], r["error"], *[""] * 10)
+            table.add_row(str(r["vehicles"]), r["links"], r["error"], *[""] * 11)
             continue
         table.add_row(
             str(r["vehicles"]),
             r["links"],
+            str(r.get("web_clients") or "-"),
             str(r["free_cells"]),
             f"{r['coverage_pct']:.1f}",
             str(r["lost"]),
@@ -314,6 +335,67 @@ def live_table(rows: list[dict[str, Any]], speedup: float) -> Table:
             f"{r['messages_per_s']:.0f}",
             f"{100 * r['cpu_per_vehicle']:.1f} %",
             "yes" if r["fell_behind"] else "no",
+        )
+    return table
+
+
+def web_pairs(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Each live case flown with the web page watched, beside the same case without: the
+    median of each side's p99 over the repeats (``--repeat``), flown alternately."""
+    sides: dict[tuple[int, str, int], list[dict[str, Any]]] = {}
+    for r in rows:
+        if "error" not in r and "latency_ms_p99" in r:
+            sides.setdefault((r["vehicles"], r["links"], r.get("web_clients", 0)), []).append(r)
+    pairs = []
+    for (vehicles, links, clients), watched_rows in sides.items():
+        alone = sides.get((vehicles, links, 0))
+        if not clients or not alone:
+            continue
+        before = statistics.median(r["latency_ms_p99"] for r in alone)
+        after = statistics.median(r["latency_ms_p99"] for r in watched_rows)
+        pairs.append(
+            {
+                "vehicles": vehicles,
+                "links": links,
+                "web_clients": clients,
+                "runs": len(watched_rows),
+                "p99_ms_without": [r["latency_ms_p99"] for r in alone],
+                "p99_ms_with": [r["latency_ms_p99"] for r in watched_rows],
+                "median_p99_ms_without": before,
+                "median_p99_ms_with": after,
+                "ratio": round(after / before, 3) if before > 0 else None,
+                "web_updates": sum(r.get("web_updates", 0) for r in watched_rows),
+                "web_mb": round(sum(r.get("web_mb", 0.0) for r in watched_rows), 1),
+                "web_dropped": sum(r.get("web_dropped", 0) for r in watched_rows),
+                "web_clients_cpu_s": round(
+                    sum(r.get("web_clients_cpu_s", 0.0) for r in watched_rows), 1
+                ),
+            }
+        )
+    return pairs
+
+
+def web_table(pairs: list[dict[str, Any]]) -> Table:
+    table = Table(title="the web page's cost: decision latency p99, without and with it watched")
+    for name in ("vehicles", "links", "clients", "runs", "p99 ms without", "p99 ms with"):
+        table.add_column(name, justify="right")
+    for name in ("median with / without", "updates read", "MB read", "clients' CPU s"):
+        table.add_column(name, justify="right")
+    table.add_column("dropped", justify="right")
+    for p in pairs:
+        ratio = "-" if p["ratio"] is None else f"{p['ratio']:.3f}"
+        table.add_row(
+            str(p["vehicles"]),
+            p["links"],
+            str(p["web_clients"]),
+            str(p["runs"]),
+            ", ".join(f"{v:.1f}" for v in p["p99_ms_without"]),
+            ", ".join(f"{v:.1f}" for v in p["p99_ms_with"]),
+            ratio,
+            str(p["web_updates"]),
+            f"{p['web_mb']:.1f}",
+            f"{p['web_clients_cpu_s']:.1f}",
+            str(p["web_dropped"]),
         )
     return table
 
@@ -354,7 +436,7 @@ def goals(planner_rows: list[dict[str, Any]], live_rows: list[dict[str, Any]]) -
             )
         )
     for r in live_rows:
-        if r["vehicles"] != GOAL_VEHICLES:
+        if r["vehicles"] != GOAL_VEHICLES or r.get("web_clients"):
             continue
         what = (
             f"live, {GOAL_VEHICLES} vehicles ({r['links']} link): complete, none lost, "
@@ -365,6 +447,20 @@ def goals(planner_rows: list[dict[str, Any]], live_rows: list[dict[str, Any]]) -
                 what,
                 r,
                 lambda r: (f"p99 {r['latency_ms_p99']:.2f} ms", r["latency_ms_p99"] < GOAL_P99_MS),
+            )
+        )
+    for pair in web_pairs(live_rows):
+        if pair["vehicles"] != GOAL_VEHICLES or pair["ratio"] is None:
+            continue
+        found.append(
+            Goal(
+                f"live, {GOAL_VEHICLES} vehicles ({pair['links']} link) with "
+                f"{pair['web_clients']} web clients: decision latency p99 within "
+                f"{100 * (GOAL_WEB_RATIO - 1):.0f} % of the same run without the page",
+                f"median p99 {pair['median_p99_ms_with']:.2f} ms against "
+                f"{pair['median_p99_ms_without']:.2f} ms (x{pair['ratio']:.3f}) over "
+                f"{pair['runs']} run(s) each, {pair['web_dropped']} clients dropped",
+                pair["ratio"] <= GOAL_WEB_RATIO and pair["web_dropped"] == 0,
             )
         )
     return found
@@ -411,8 +507,10 @@ def run_perf(args: argparse.Namespace) -> int:
     agents = positive_numbers(args.agents, "agents")
     vehicles = positive_numbers(args.vehicles, "vehicles")
     kinds = chosen(args.kinds, "kinds", list(GENERATORS))
-    if args.live_speedup <= 0 or args.case_limit <= 0:
-        raise UsageError("--live-speedup and --case-limit must be positive")
+    if args.live_speedup <= 0 or args.case_limit <= 0 or args.live_time_limit <= 0:
+        raise UsageError("--live-speedup, --case-limit and --live-time-limit must be positive")
+    if args.web_clients < 0 or args.repeat < 1:
+        raise UsageError("--web-clients must be 0 or more, --repeat 1 or more")
     settings = parse_settings(args.changes, "set")
     console = output_console(quiet=False)
     progress = Console(stderr=True)
@@ -448,9 +546,20 @@ def run_perf(args: argparse.Namespace) -> int:
                 progress.print(
                     f"live: {n} vehicles at speed-up {args.live_speedup:g}, {link} link ..."
                 )
-                live_rows.append(run_live_case(n, args.live_speedup, link))
+                # With the page and without, alternately: the machine's drift shows on both.
+                sides = [0, args.web_clients] if args.web_clients else [0]
+                for clients in sides * args.repeat:
+                    if clients:
+                        progress.print(f"live: the same, the web page read by {clients} ...")
+                    live_rows.append(
+                        run_live_case(n, args.live_speedup, link, clients, args.live_time_limit)
+                    )
         figures["live"] = {"speedup": args.live_speedup, "runs": live_rows}
         console.print(live_table(live_rows, args.live_speedup))
+        pairs = web_pairs(live_rows)
+        if pairs:
+            figures["web"] = pairs
+            console.print(web_table(pairs))
     found = goals(planner_rows, live_rows)
     if found:
         figures["goals"] = [asdict(goal) for goal in found]

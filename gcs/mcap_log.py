@@ -47,7 +47,7 @@ import json
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import IO, Any, Protocol
 
@@ -873,12 +873,13 @@ class McapMissionLog:
             key = replace(v, heard_s_ago=None if heard is None or heard < 2 else int(heard))
             if self._statuses.get(v.sysid) != key:
                 self._statuses[v.sysid] = key
-                self._json(status_topic(v.sysid), STATUS_SCHEMA, t_s, {"t_s": t_s, **asdict(v)})
+                # vars(): shallow, where asdict copies each cell of the way again.
+                self._json(status_topic(v.sysid), STATUS_SCHEMA, t_s, {"t_s": t_s, **vars(v)})
         left = progress.time_left_s
         shown = replace(progress, time_left_s=None if left is None else round(left / 10))
         if shown != self._progress:
             self._progress = shown
-            message = {"t_s": t_s, **asdict(progress), "pct": round(progress.pct, 3)}
+            message = {"t_s": t_s, **vars(progress), "pct": round(progress.pct, 3)}
             self._json(PROGRESS_TOPIC, PROGRESS_SCHEMA, t_s, message)
 
     def _emit_pending(self, t_s: float) -> None:

@@ -9,7 +9,14 @@ import pytest
 from rich.console import Console
 
 from gcs import bench_perf
-from gcs.bench_perf import goals, goals_table, live_map, write_live_mission
+from gcs.bench_perf import (
+    goals,
+    goals_table,
+    live_map,
+    run_live_case,
+    web_pairs,
+    write_live_mission,
+)
 from gcs.cli import main
 from gcs.mission import load_mission
 
@@ -151,3 +158,41 @@ def test_the_planner_is_compiled_before_the_cases_fork(monkeypatch, tmp_path: Pa
     assert main([*args, "--set", "far_transit_recheck=3", "--json", str(tmp_path / "p.json")]) == 0
     # Only the warm-ups ran here: the cases ran in children.
     assert planned == [(f"warm-up-{kind}", 3) for kind in ("rooms", "building", "open")]
+
+
+def test_the_web_pages_cost_is_judged_on_medians_of_alternate_runs() -> None:
+    def row(clients: int, p99: float, **more: object) -> dict[str, object]:
+        return {
+            "vehicles": 64,
+            "links": "own",
+            "web_clients": clients,
+            "coverage_pct": 100.0,
+            "lost": 0,
+            "latency_ms_p99": p99,
+            **more,
+        }
+
+    web = {"web_updates": 10, "web_mb": 1.0, "web_dropped": 0, "web_clients_cpu_s": 2.0}
+    rows = [row(0, 10.0), row(5, 10.5, **web), row(0, 30.0), row(5, 11.5, **web), row(0, 11.0)]
+    rows.append(row(5, 50.0, **web))
+    pairs = web_pairs(rows)
+    assert len(pairs) == 1
+    pair = pairs[0]
+    assert (pair["median_p99_ms_without"], pair["median_p99_ms_with"]) == (11.0, 11.5)
+    assert pair["ratio"] == pytest.approx(11.5 / 11.0, abs=1e-3)
+    assert pair["runs"] == 3 and pair["web_updates"] == 30
+    found = goals([], rows)
+    # The plain latency goal is judged on the runs without the page only.
+    assert sum("within 10 %" in g.what for g in found) == 1
+    assert sum("under 20 ms" in g.what for g in found) == 3
+    judged = next(g for g in found if "within 10 %" in g.what)
+    assert judged.met and "x1.045" in judged.measured
+    dropped = [*rows[:-1], row(5, 11.0, **{**web, "web_dropped": 1})]
+    assert not next(g for g in goals([], dropped) if "within 10 %" in g.what).met
+
+
+@pytest.mark.timeout(120)
+def test_a_live_case_is_flown_with_its_page_read_by_clients() -> None:
+    r = run_live_case(2, 10.0, "own", web_clients=2, time_limit_s=60.0)
+    assert "error" not in r and r["lost"] == 0
+    assert r["web_updates"] > 2 and r["web_mb"] > 0 and r["web_dropped"] == 0

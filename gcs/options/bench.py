@@ -31,6 +31,8 @@ PERF_KINDS = ("rooms", "building", "open")
 PERF_LINKS = ("own", "shared")
 #: Event-loop lateness (99th percentile) above which a live run fell behind.
 LOOP_BEHIND_MS = 100.0
+#: Mission seconds after which a live case is stopped (everyone sent home).
+LIVE_TIME_LIMIT_S = 3600.0
 
 #: ``gcs bench faults``
 FAULTS_MISSION = MISSIONS / "demo.yaml"
@@ -256,6 +258,30 @@ def _perf(p: argparse.ArgumentParser) -> None:
         default="own",
         help="live runs with each vehicle on a UDP port of its own, the whole fleet on one "
         "port (as behind one radio), or both side by side (default own)",
+    )
+    p.add_argument(
+        "--web-clients",
+        type=int,
+        default=0,
+        metavar="N",
+        help="fly each live case a second time with its web page (gcs run --web) read by N "
+        "clients in another process, and compare the decision latency (default 0: not)",
+    )
+    p.add_argument(
+        "--live-time-limit",
+        type=float,
+        default=LIVE_TIME_LIMIT_S,
+        metavar="S",
+        help="mission seconds after which a live case sends every vehicle home (default "
+        f"{LIVE_TIME_LIMIT_S:g})",
+    )
+    p.add_argument(
+        "--repeat",
+        type=int,
+        default=1,
+        metavar="N",
+        help="fly each live case N times (with --web-clients: with and without the page, "
+        "alternately; the medians are compared) (default 1)",
     )
     p.add_argument("--skip-planner", action="store_true", help="only the live runs")
     p.add_argument("--skip-live", action="store_true", help="only the planner cases")

@@ -45,7 +45,7 @@ class ClientPace:
     """How clients are served (real seconds)."""
 
     #: Between two updates to one client: a few a second, whatever the mission writes.
-    update_period_s: float = 0.3
+    update_period_s: float = 0.5
     #: How long a send may take, and how many bytes may wait in a client's buffer,
     #: before the client is dropped.
     send_timeout_s: float = 5.0
@@ -185,7 +185,7 @@ class WebView:
         if request.path == "/ws" and not _same_origin(request):
             return web.Response(status=403, text="a page of another site may not connect\n")
         response: web.StreamResponse = await handler(request)
-        if self.token and given:
+        if self.token and given and request.path != "/ws":
             response.set_cookie(TOKEN_COOKIE, self.token, httponly=True, samesite="Strict")
         return response
 
@@ -201,7 +201,9 @@ class WebView:
         return web.Response(text=json.dumps(body), content_type="application/json")
 
     async def _socket(self, request: web.Request) -> web.WebSocketResponse:
-        ws = web.WebSocketResponse(heartbeat=30.0, max_msg_size=64 * 1024)
+        # Uncompressed: the updates are a few kilobytes a second, and compressing each
+        # client's copy would cost the mission's loop (or its worker threads) for nothing.
+        ws = web.WebSocketResponse(heartbeat=30.0, max_msg_size=64 * 1024, compress=False)
         await ws.prepare(request)
         self._clients.add(ws)
         sender = asyncio.ensure_future(self._send_to(ws, request))

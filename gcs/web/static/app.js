@@ -145,6 +145,7 @@ function arrowIcon(v, status) {
 
 function shortTask(status) {
   if (status.phase === "lost") return "lost";
+  if (status.phase === "done") return "parked";
   if (status.phase === "charging") return "charging";
   return TASKS[status.task] || status.task || status.phase;
 }
