@@ -10,6 +10,7 @@ every run has a mission time limit, so nothing can hang.
 from __future__ import annotations
 
 import asyncio
+import itertools
 import json
 from collections.abc import Callable
 from pathlib import Path
@@ -189,6 +190,39 @@ async def test_complete_coverage_everyone_parked(
     # map (test_demo_fleet_is_no_longer_than_the_plan).
     assert (out / "coverage.png").exists()
     assert_log_rebuilds_the_report(out, got, [v + 1 for v in range(len(vehicles))])
+    assert_statuses_agree(out, got, load_mission(mission).charger)
+
+
+def assert_statuses_agree(out: Path, got: dict[str, Any], charger: tuple[int, int]) -> None:
+    """What the operator was shown (``/vehicle/N/status``, ``/run/progress``): planned
+    ways that are walks from where the vehicle stood, and an end that is the report's."""
+    last: dict[int, dict[str, Any]] = {}
+    progress: list[dict[str, Any]] = []
+    ways = 0
+    with (out / "mission.mcap").open("rb") as stream:
+        for _schema, channel, message in make_reader(stream).iter_messages():
+            data = json.loads(message.data) if channel.message_encoding == "json" else None
+            if channel.topic.endswith("/status"):
+                assert data is not None
+                last[data["sysid"]] = data
+                way = [data["cell"], *data["way"]]
+                steps = [abs(a[0] - b[0]) + abs(a[1] - b[1]) for a, b in itertools.pairwise(way)]
+                assert all(step == 1 for step in steps[1:]), data  # a walk, cell by cell
+                assert not steps or steps[0] <= 1, data  # from where it stands
+                ways += bool(data["way"])
+            elif channel.topic == "/run/progress":
+                assert data is not None
+                progress.append(data)
+    assert ways > 0  # some vehicle was shown on its way somewhere
+    assert len(last) == got["agent_count"]
+    for status in last.values():
+        assert status["phase"] == "done" and status["task"] == "done", status
+        assert tuple(status["cell"]) == charger and status["home_m"] == 0.0
+        assert status["link_up"] and status["way"] == []
+    covered = [p["covered"] for p in progress]
+    assert covered == sorted(covered)
+    assert progress[-1]["state"] == "coverage complete, every vehicle parked"
+    assert progress[-1]["covered"] == progress[-1]["free"] == got["free_cells"]
 
 
 def assert_log_rebuilds_the_report(out: Path, got: dict[str, Any], sysids: list[int]) -> None:

@@ -323,6 +323,10 @@ class SharedPlanner:
     def mode(self, agent: int) -> AgentMode:
         return self.coordinator.mode(agent)
 
+    def heading_for(self, agent: int) -> Cell | None:
+        """The cell a vehicle was sent to and has not reached yet, if any."""
+        return self._heading_for.get(agent)
+
     @property
     def finished(self) -> bool:
         return self.coordinator.finished

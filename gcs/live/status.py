@@ -12,10 +12,10 @@ import logging
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from gcs.live.shared import Phase, VehicleView
+from gcs.live.shared import Phase, SharedPlanner, VehicleView
 from gcs.mission_log import WAY_CELLS, MissionLog, MissionProgress, VehicleStatus
 from planner.belief import UNREACHED
-from planner.coordinator import Coordinator
+from planner.coordinator import AgentMode
 from planner.grid import Cell
 
 if TYPE_CHECKING:
@@ -26,6 +26,10 @@ Planned = tuple[tuple[Cell, ...], float | None]
 
 #: What a rover does where a copter flies.
 _ROVER_PHASE = {Phase.FLYING_HOME: "driving home (AUTO)", Phase.TAKING_OFF: "arming"}
+
+#: The planner's modes in which a vehicle follows a planned way (an exploring one sweeps
+#: cell by cell: what its way still holds is not where it goes).
+_TRAVELLING = frozenset({AgentMode.TRANSIT, AgentMode.RETURN, AgentMode.HOMING})
 
 #: Real seconds between two looks at the mission by the status task.
 STATUS_PERIOD_S = 0.25
@@ -74,11 +78,16 @@ def mission_progress(run: LiveRun) -> MissionProgress | None:
     )
 
 
-def _planned(coordinator: Coordinator, sysid: int, cell_size_m: float) -> Planned:
-    """The planner's way ahead for a vehicle and the length of its way home."""
-    way = tuple(coordinator.planned_path(sysid)[:WAY_CELLS])
-    cell = coordinator.cell_of(sysid)
-    steps = coordinator.belief.distance_to_charger(cell)
+def _planned(planner: SharedPlanner, sysid: int, cell_size_m: float) -> Planned:
+    """The way ahead of a vehicle on its way somewhere (to a new area, to charge, home):
+    the cell it was sent to, then the planner's path; and the length of its way home."""
+    coordinator = planner.coordinator
+    way: tuple[Cell, ...] = ()
+    if coordinator.mode(sysid) in _TRAVELLING:
+        target = planner.heading_for(sysid)
+        path = coordinator.planned_path(sysid)[:WAY_CELLS]
+        way = tuple(path if target is None else [target, *path])
+    steps = coordinator.belief.distance_to_charger(coordinator.cell_of(sysid))
     return way, None if steps >= UNREACHED else steps * cell_size_m
 
 
@@ -142,8 +151,8 @@ class StatusWatch:
         if planner is None or progress is None:
             return
         cell_size_m = self.run.mission.cell_size_m
-        async with planner.reading() as coordinator:
-            ways = {sysid: _planned(coordinator, sysid, cell_size_m) for sysid in self.run.views}
+        async with planner.reading():
+            ways = {sysid: _planned(planner, sysid, cell_size_m) for sysid in self.run.views}
         log.status(planner.t_s, self.vehicles(ways), progress)
 
     async def keep_writing(self, log: MissionLog, period_s: float = STATUS_PERIOD_S) -> None:

@@ -164,7 +164,8 @@ function drawVehicles() {
     const el = marker.getElement();
     if (el) {
       el.dataset.sysid = v.sysid;
-      const cell = status && status.cell ? status.cell : (v.battery ? v.battery.cell : null);
+      // Where it last arrived (each arrival is logged); the status may be a moment older.
+      const cell = v.battery ? v.battery.cell : (status ? status.cell : null);
       el.dataset.cell = cell ? cell.join(",") : "";
     }
     let track = view.tracks.get(v.sysid);
@@ -178,7 +179,7 @@ function drawVehicles() {
       way = L.polyline([], {color: v.colour, weight: 2, dashArray: "5 5", opacity: 0.95}).addTo(view.map);
       view.ways.set(v.sysid, way);
     }
-    const cells = status && status.way ? status.way : [];
+    const cells = wayAhead(status, v.battery ? v.battery.cell : null);
     way.setLatLngs(cells.length ? [at, ...cells.map(cellCentre)] : []);
   }
   for (const [sysid, marker] of view.markers) {  // a seek back to before a vehicle showed
@@ -192,6 +193,16 @@ function drawVehicles() {
     L.circleMarker(cellCentre(cell), {radius: 5, color: "#7f0000", weight: 1, fillColor: "#d32f2f", fillOpacity: 0.9})
       .addTo(view.btps);
   }
+}
+
+// The planned way from where the vehicle last arrived: a status is written a few times a
+// second, so the vehicle may have gone on along it since; a way it has left is not drawn.
+function wayAhead(status, here) {
+  const way = status && status.way ? status.way : [];
+  if (!way.length || !here || !status.cell) return way;
+  if (status.cell[0] === here[0] && status.cell[1] === here[1]) return way;
+  const k = way.findIndex(c => c[0] === here[0] && c[1] === here[1]);
+  return k >= 0 ? way.slice(k + 1) : [];
 }
 
 function clock(seconds) {
