@@ -25,6 +25,7 @@ import ipaddress
 import json
 import logging
 import secrets
+import socket
 from dataclasses import dataclass
 from importlib import resources
 from typing import Any
@@ -114,7 +115,10 @@ class WebView:
 
     @property
     def url(self) -> str:
-        host = f"[{self.host}]" if ":" in self.host else self.host
+        """The page's address (with the token, if one is needed); a listener on every
+        interface is named by this machine's host name, which others can reach."""
+        host = socket.gethostname() if self.host in ("0.0.0.0", "::") else self.host
+        host = f"[{host}]" if ":" in host else host
         query = f"?token={self.token}" if self.token else ""
         return f"http://{host}:{self.port}/{query}"
 
