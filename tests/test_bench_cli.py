@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from gcs.bench_cli import parse_settings
+from gcs.bench.common import parse_settings
 from gcs.cli import main
 from gcs.errors import UsageError
 from planner.settings import BmRule

@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from gcs.bench_faults import fault_cases, on_free_ports, verdict
+from gcs.bench.faults import fault_cases, on_free_ports, verdict
 from gcs.cli import main
 from gcs.mission import load_mission
 from tests.test_live_mission import write_mission

@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 from rich.console import Console
 
-from gcs import bench_perf
-from gcs.bench_perf import (
+from gcs.bench import perf as bench_perf
+from gcs.bench.perf import (
     goals,
     goals_table,
     live_map,

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from gcs import bench_plans
-from gcs.bench_plans import summarise
+from gcs.bench import plans as bench_plans
+from gcs.bench.plans import summarise
 from gcs.cli import main
 from tests.processes import ctrl_c, gcs_process, processes_naming
 

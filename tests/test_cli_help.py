@@ -12,8 +12,8 @@ import sys
 import pytest
 
 from gcs import cli
-from gcs.bench_mavlink import TIMERS
-from gcs.commands.bench import PAPER_TABLE1
+from gcs.bench.mavlink import TIMERS
+from gcs.bench.paper import PAPER_TABLE1
 from gcs.generated_missions import GENERATORS
 from gcs.live.agent import AgentSettings
 from gcs.mission import MAX_SYSID

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gcs.bench_faults import log_loss_s, stop
+from gcs.bench.faults import log_loss_s, stop
 from gcs.live.resume import ResumeError, ResumePoint, load_resume_point, resumed_text
 from gcs.log_reader import read_contents
 from gcs.mission import load_mission

@@ -6,7 +6,7 @@ import argparse
 import os
 from pathlib import Path
 
-from gcs.bench_cli import json_path
+from gcs.bench.common import json_path
 from gcs.options import runs
 from gcs.options.run import LOST_AFTER_S
 from vehicles.keyfile import MAX_SYSID
@@ -179,7 +179,7 @@ def _paper(p: argparse.ArgumentParser) -> None:
         "--agents", type=int, nargs="+", default=list(PAPER_AGENTS), help="Table 1 fleet sizes"
     )
     p.add_argument("--json", type=json_path, help="also write the figures as JSON to this file")
-    runs(p, "gcs.commands.bench:run_paper")
+    runs(p, "gcs.bench.paper:run_paper")
 
 
 def _mavlink(p: argparse.ArgumentParser) -> None:
@@ -215,7 +215,7 @@ def _mavlink(p: argparse.ArgumentParser) -> None:
         help="physics lag (95th percentile) above which a fleet falls behind",
     )
     p.add_argument("--json", type=json_path, help="also write the figures as JSON to this file")
-    runs(p, "gcs.bench_mavlink:run_mavlink_command")
+    runs(p, "gcs.bench.mavlink:run_mavlink_command")
 
 
 def _perf(p: argparse.ArgumentParser) -> None:
@@ -286,7 +286,7 @@ def _perf(p: argparse.ArgumentParser) -> None:
     p.add_argument("--skip-planner", action="store_true", help="only the live runs")
     p.add_argument("--skip-live", action="store_true", help="only the planner cases")
     p.add_argument("--json", type=json_path, help="also write the figures to this JSON file")
-    runs(p, "gcs.bench_perf:run_perf")
+    runs(p, "gcs.bench.perf:run_perf")
 
 
 def _plans(p: argparse.ArgumentParser) -> None:
@@ -318,7 +318,7 @@ def _plans(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--json", type=json_path, help="also write every run's figures to this JSON file"
     )
-    runs(p, "gcs.bench_plans:run_plans")
+    runs(p, "gcs.bench.plans:run_plans")
 
 
 def _faults(p: argparse.ArgumentParser) -> None:
@@ -350,4 +350,4 @@ def _faults(p: argparse.ArgumentParser) -> None:
         "--only", metavar="N,...", help="run only these rows (1-based numbers of the table)"
     )
     p.add_argument("--json", type=json_path, help="also write the table to this JSON file")
-    runs(p, "gcs.bench_faults:run_faults")
+    runs(p, "gcs.bench.faults:run_faults")

@@ -21,7 +21,7 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
-from gcs.bench_cli import (
+from gcs.bench.common import (
     chosen,
     parse_settings,
     positive_numbers,

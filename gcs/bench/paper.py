@@ -17,7 +17,7 @@ from pathlib import Path
 
 from rich.table import Table
 
-from gcs.bench_cli import write_json
+from gcs.bench.common import write_json
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.mission import Mission, MissionError, load_mission

@@ -27,7 +27,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from rich.console import Console
 from rich.table import Table
 
-from gcs.bench_cli import write_json
+from gcs.bench.common import write_json
 from gcs.errors import EXIT_OK, UsageError
 from gcs.mission import MAX_SYSID, Mission, MissionError, load_mission
 from gcs.mock_fleet import mock_fleet_configs

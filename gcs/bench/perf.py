@@ -24,14 +24,14 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
-from gcs.bench_cli import chosen, parse_settings, positive_numbers, write_json
-from gcs.bench_web import Watchers, watched
+from gcs.bench.common import chosen, parse_settings, positive_numbers, write_json
+from gcs.bench.machine_pace import reference_seconds
+from gcs.bench.web import Watchers, watched
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.generated_missions import GENERATORS, MAP_SEED, RESERVE_PCT, case_mission
 from gcs.live.mission import LiveOptions, MissionRefused, run_live
 from gcs.live.shared import Level
-from gcs.machine_pace import reference_seconds
 from gcs.mission import Mission, load_mission
 from gcs.mission_log import NullLog
 from gcs.options.bench import LIVE_TIME_LIMIT_S, LOOP_BEHIND_MS, PERF_LINKS
@@ -245,7 +245,7 @@ def run_live_case(
 ) -> dict[str, Any]:
     """One live mission through the mission API, as ``gcs run --sim`` flies it (the mock
     fleet in this process), without a log, or with the web page served to
-    ``web_clients`` readers (``gcs.bench_web``): the figures of its report."""
+    ``web_clients`` readers (``gcs.bench.web``): the figures of its report."""
     if not logging.getLogger().handlers:
         # Library warnings (a link lost...) are the run's own business here.
         logging.getLogger().addHandler(logging.NullHandler())
@@ -523,7 +523,7 @@ def run_perf(args: argparse.Namespace) -> int:
     }
     console.print(
         f"machine pace: the reference workload took {pace_s:.3f} s "
-        "(gcs/machine_pace.py; compare figures only at like paces)"
+        "(gcs/bench/machine_pace.py; compare figures only at like paces)"
     )
     console.print(f"planner: {planner_build()}")
     planner_rows: list[dict[str, Any]] = []
