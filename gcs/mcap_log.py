@@ -54,6 +54,7 @@ from typing import IO, Any, Protocol
 import numpy as np
 from mcap.writer import CompressionType, Writer
 
+from gcs.mission import Mission
 from gcs.mission_log import MissionProgress, VehicleStatus
 from gcs.result import AgentTrace, BtpRecord, RunResult
 from planner.grid import Cell, CellState, Direction
@@ -555,6 +556,23 @@ class McapMissionLog:
         self._write_meta()
         self._write_frame()
         self.flush()
+
+    @classmethod
+    def for_mission(
+        cls, mission: Mission, path: Path | str | None, **options: Any
+    ) -> McapMissionLog:
+        """The log of ``mission`` at ``path`` (None: no file); ``options``: the log's own
+        settings (``sinks``, ``free_cells``, chunking...)."""
+        return cls(
+            path,
+            mission_name=mission.name,
+            shape=mission.map.shape,
+            cell_size_m=mission.cell_size_m,
+            charger=mission.charger,
+            geo=mission.geo,
+            reserve_pct=mission.planner.reserve_pct,
+            **options,
+        )
 
     def start(self, unix_s: float | None = None) -> None:
         """Mission time 0 is now (or ``unix_s``, Unix seconds): what is logged from here

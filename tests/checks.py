@@ -130,13 +130,4 @@ def energy_for_round_trips(grid: GridMap, trips: float, reserve_pct: float = 20.
 
 def open_mission_log(path: Path, mission: Mission, **options: Any) -> McapMissionLog:
     """A mission log of ``mission`` at ``path`` (``options``: the log's own settings)."""
-    return McapMissionLog(
-        path,
-        mission_name=mission.name,
-        shape=mission.map.shape,
-        cell_size_m=mission.cell_size_m,
-        charger=mission.charger,
-        geo=mission.geo,
-        reserve_pct=mission.planner.reserve_pct,
-        **options,
-    )
+    return McapMissionLog.for_mission(mission, path, **options)

@@ -74,16 +74,7 @@ async def watched(mission: Mission, clients: int) -> AsyncIterator[tuple[McapMis
     """A log with no file whose stream the page serves to ``clients`` readers, connected
     before this yields; their counts are filled in once the page has closed."""
     feed = LiveFeed()
-    log = McapMissionLog(
-        None,
-        mission_name=mission.name,
-        shape=mission.map.shape,
-        cell_size_m=mission.cell_size_m,
-        charger=mission.charger,
-        geo=mission.geo,
-        reserve_pct=mission.planner.reserve_pct,
-        sinks=[feed],
-    )
+    log = McapMissionLog.for_mission(mission, None, sinks=[feed])
     view = WebView(PageConfig(mode="live", title=mission.name), feed=feed, port=0)
     watchers = Watchers(clients)
     receive, send = multiprocessing.Pipe(duplex=False)

@@ -96,14 +96,9 @@ def open_log(mission: Mission, out: Path | None, sinks: Sequence[LogSink] = ()) 
     try:
         if out is not None:
             out.mkdir(parents=True, exist_ok=True)
-        return McapMissionLog(
+        return McapMissionLog.for_mission(
+            mission,
             None if out is None else out / LOG_NAME,
-            mission_name=mission.name,
-            shape=mission.map.shape,
-            cell_size_m=mission.cell_size_m,
-            charger=mission.charger,
-            geo=mission.geo,
-            reserve_pct=mission.planner.reserve_pct,
             free_cells=int(mission.map.reachable(mission.charger).sum()),
             sinks=sinks,
         )
