@@ -20,6 +20,7 @@ import pytest
 from websockets.asyncio.client import connect
 from websockets.exceptions import InvalidStatus
 
+from gcs.cli import main
 from gcs.web.feed import LiveFeed
 from gcs.web.server import ClientPace, PageConfig, WebView, WebViewError, needs_token
 
@@ -206,3 +207,27 @@ async def test_what_was_written_before_the_close_reaches_the_clients() -> None:
             assert [r["topic"] for r in last["records"]] == ["/run/progress"]
     finally:
         await view.close()
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (["--tiles", "https://tiles.example/{z}/{x}/{y}.png"], "--web-host and --tiles need --web"),
+        (["--web-host", "0.0.0.0"], "--web-host and --tiles need --web"),
+        (["--web", "70000"], "--web: port 70000 is not in 0-65535"),
+        (["--web", "0", "--tiles", "https://tiles.example/map.png"], "is not a URL template"),
+    ],
+)
+@pytest.mark.parametrize("command", ["run", "report"])
+def test_the_page_options_are_checked_before_anything_flies(
+    command: str, options: list[str], message: str, tmp_path: Path, capsys: Any
+) -> None:
+    demo = Path(__file__).resolve().parents[1] / "missions" / "demo.yaml"
+    if command == "run":
+        args = ["run", str(demo), "--sim", *options]
+    else:  # a report needs a log: the shortest one a plan writes
+        out = tmp_path / "plan"
+        assert main(["plan", str(demo), "--agents", "1", "--quiet", "--out", str(out)]) in (0, 1)
+        args = ["report", str(out / "mission.mcap"), "--quiet", *options]
+    assert main(args) == 2
+    assert message in capsys.readouterr().err

@@ -10,13 +10,12 @@ from pathlib import Path
 
 from rich.console import Console
 
-from gcs.commands.web_page import start_web, web_view
+from gcs.commands.web_page import start_web, wants_web, web_view
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.figures import write_figures
 from gcs.log_reader import LogError, read_contents, result_of
 from gcs.report import print_summary, write_report
-from gcs.web import LOOPBACK
 from gcs.web.replay import load_replay
 from gcs.web.server import WebView
 
@@ -42,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     print_summary(result, console)
     console.print(f"wrote {out}/report.json and figures")
     code = EXIT_OK if result.complete else EXIT_FAILED
-    if args.web is not None or args.tiles or args.web_host != LOOPBACK:
+    if wants_web(args):
         serve_replay(args, result.mission)
     return code
 

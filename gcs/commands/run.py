@@ -19,7 +19,7 @@ import sys
 from rich.console import Console
 
 from gcs.commands.plan import LOG_NAME, load, open_log, save_outputs
-from gcs.commands.web_page import start_web, web_view
+from gcs.commands.web_page import start_web, wants_web, web_view
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
 from gcs.foxglove_live import LiveView, LiveViewError
@@ -37,7 +37,6 @@ from gcs.options.run import SIM_SPEEDUP
 from gcs.preflight import check_range
 from gcs.report import print_summary
 from gcs.result import RunResult
-from gcs.web import LOOPBACK
 from gcs.web.feed import LiveFeed
 from gcs.web.server import WebView
 from sitl_mock.connection import ConnectionStringError, mirror
@@ -213,8 +212,7 @@ def run(args: argparse.Namespace) -> int:
     if reach.out_of_range:
         errors.print(f"[yellow]warning:[/] {reach.message()}")
     live = open_live(args.live) if args.live is not None else None
-    wants_web = args.web is not None or args.tiles or args.web_host != LOOPBACK
-    feed = LiveFeed() if wants_web else None
+    feed = LiveFeed() if wants_web(args) else None
     view = None if feed is None else web_view(args, mission.name, feed=feed)
     sinks: list[LogSink] = [s for s in (live, feed) if s is not None]
     try:

@@ -6,8 +6,14 @@ import argparse
 import sys
 
 from gcs.errors import UsageError
+from gcs.web import LOOPBACK
 from gcs.web.feed import LiveFeed
 from gcs.web.server import PageConfig, WebView, WebViewError
+
+
+def wants_web(args: argparse.Namespace) -> bool:
+    """Whether any of the page's options was given (the others then need ``--web``)."""
+    return args.web is not None or args.tiles is not None or args.web_host != LOOPBACK
 
 
 def web_view(
