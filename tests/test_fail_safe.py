@@ -513,8 +513,8 @@ async def test_a_fenced_rover_stops_at_the_fence_after_the_station_falls_silent(
     fence_east_m = 5 * size
     corners = ((size, -size), (size, fence_east_m), (-8 * size, fence_east_m), (-8 * size, -size))
     vertices = [geo.local_to_geo(north, east) for north, east in corners]
-    changes = {"vehicle": dataclasses.replace(base, drive=DriveSettings(), speed_m_s=2.0)}
-    async with asyncio.timeout(BODY_S), linked(mission, UDP, **changes) as pair:
+    vehicle = dataclasses.replace(base, drive=DriveSettings(), speed_m_s=2.0)
+    async with asyncio.timeout(BODY_S), linked(mission, UDP, vehicle=vehicle) as pair:
         pilot = Pilot(pair.link, VehicleKind.ROVER, geo, ScaledClock(SPEEDUP), 2.0)
         await pilot.set_fence(vertices)
         truth = pair.truth

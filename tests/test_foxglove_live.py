@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 from websockets.asyncio.client import ClientConnection, connect
+from websockets.typing import Subprotocol
 
 from gcs.foxglove_live import LiveView
 from gcs.mcap_log import SCHEMAS
@@ -27,7 +28,7 @@ from tests.test_mcap_log import _mission
 
 pytestmark = pytest.mark.timeout(60)
 
-SUBPROTOCOL = "foxglove.sdk.v1"  # what the Foxglove SDK server speaks
+SUBPROTOCOL = Subprotocol("foxglove.sdk.v1")  # what the Foxglove SDK server speaks
 MESSAGE_DATA = 0x01  # binary opcode of a message on a subscription
 
 
@@ -95,7 +96,9 @@ async def test_the_logs_topics_are_served_live_with_their_schemas(tmp_path: Path
         log.close()
         view.close()
     with (tmp_path / "live.mcap").open("rb") as stream:
-        topics = {c.topic for c in make_reader(stream).get_summary().channels.values()}
+        summary = make_reader(stream).get_summary()
+        assert summary is not None
+        topics = {c.topic for c in summary.channels.values()}
     assert {"/map", "/events", "/mavlink/1/in"} <= topics  # the file has it all
 
 

@@ -161,7 +161,7 @@ async def test_command_accepted_first_time() -> None:
 
 
 async def test_command_retried_with_confirmation() -> None:
-    script = {mavlink.MAV_CMD_COMPONENT_ARM_DISARM: [None, None]}
+    script: dict[int, list[int | None]] = {mavlink.MAV_CMD_COMPONENT_ARM_DISARM: [None, None]}
     async with connected(FakeOptions(command_script=script)) as (fake, link):
         await link.arm()
         assert [c.confirmation for c in fake.commands] == [0, 1, 2]
@@ -170,7 +170,7 @@ async def test_command_retried_with_confirmation() -> None:
 
 
 async def test_command_timeout() -> None:
-    script = {mavlink.MAV_CMD_COMPONENT_ARM_DISARM: [None] * 10}
+    script: dict[int, list[int | None]] = {mavlink.MAV_CMD_COMPONENT_ARM_DISARM: [None] * 10}
     async with connected(FakeOptions(command_script=script)) as (fake, link):
         with pytest.raises(CommandTimeout) as info:
             await link.arm()
@@ -251,7 +251,7 @@ async def test_set_mode_px4_encoding() -> None:
 
 
 async def test_set_mode_without_ack_confirmed_by_heartbeat() -> None:
-    script = {mavlink.MAV_CMD_DO_SET_MODE: [None, None, None]}
+    script: dict[int, list[int | None]] = {mavlink.MAV_CMD_DO_SET_MODE: [None, None, None]}
     async with connected(FakeOptions(command_script=script)) as (fake, link):
         fake.o.custom_mode = ArduRoverMode.HOLD  # the vehicle switched, its ACK got lost
         await link.set_mode(FlightMode.HOLD)

@@ -14,14 +14,16 @@ import asyncio
 import contextlib
 import random
 from collections import defaultdict, deque
+from collections.abc import Coroutine
 from dataclasses import dataclass, field
+from typing import Any, TypeAlias
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from vehicles.mission_items import MissionItem
 from vehicles.signing import SigningConfig, apply_signing
 
-Message = mavlink.MAVLink_message
+Message: TypeAlias = mavlink.MAVLink_message
 
 
 @dataclass
@@ -109,8 +111,8 @@ class FakeVehicle:
         """The connection string for the ground side."""
         return f"udpout:127.0.0.1:{self.port}"
 
-    def _spawn(self, coro: object) -> None:
-        task = asyncio.get_running_loop().create_task(coro)  # type: ignore[arg-type]
+    def _spawn(self, coro: Coroutine[Any, Any, None]) -> None:
+        task = asyncio.get_running_loop().create_task(coro)
         self._tasks.add(task)
         task.add_done_callback(self._tasks.discard)
 

@@ -50,6 +50,7 @@ from vehicles.endpoints import free_loopback_udp_ports, parse_endpoint
 from vehicles.geo import GeoFrame
 from vehicles.link import RejectedFrames, VehicleLink
 from vehicles.telemetry import Topic
+from vehicles.transport import MavlinkTransport
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -179,9 +180,15 @@ class Pair:
     link: VehicleLink
 
     @property
+    def transport(self) -> MavlinkTransport:
+        """The link's transport of its own (the link was opened on an endpoint)."""
+        assert isinstance(self.link.transport, MavlinkTransport)
+        return self.link.transport
+
+    @property
     def link_address(self) -> Address:
-        assert self.link.transport.local_address is not None
-        return self.link.transport.local_address
+        assert self.transport.local_address is not None
+        return self.transport.local_address
 
     @property
     def mock_address(self) -> Address:
@@ -194,6 +201,7 @@ async def linked() -> AsyncIterator[Pair]:
     async with contextlib.AsyncExitStack() as stack:
         link = await VehicleLink.connect(f"udpin:{LOOPBACK}:0", target_system=SYSID)
         stack.push_async_callback(link.close)
+        assert isinstance(link.transport, MavlinkTransport)
         assert link.transport.local_address is not None
         fleet = mock_fleet(f"udpout:{LOOPBACK}:{link.transport.local_address[1]}")
         await stack.enter_async_context(fleet)
@@ -225,7 +233,7 @@ async def still_works(pair: Pair) -> None:
     ack = await pair.link.set_message_interval(mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, 4.0)
     assert ack.result == mavlink.MAV_RESULT_ACCEPTED
     assert pair.link.is_up
-    assert pair.link.transport.peer == pair.mock_address
+    assert pair.transport.peer == pair.mock_address
 
 
 def delta(after: RejectedFrames, before: RejectedFrames) -> dict[str, int]:
@@ -256,7 +264,7 @@ async def test_ground_station_counts_every_kind_of_garbage() -> None:
             async with asyncio.timeout(WAIT_S):
                 await seen.wait()
         # Garbage and a stranger's frames never take over the reply address.
-        assert link.transport.peer == pair.mock_address
+        assert pair.transport.peer == pair.mock_address
         await caught_up(link)
         assert delta(link.rejected, before) == {
             BAD: 3 * EACH,

@@ -29,7 +29,7 @@ from vehicles.endpoints import free_loopback_udp_ports
 from vehicles.errors import LinkError
 from vehicles.link import LinkEvent, LinkSettings, VehicleLink
 from vehicles.modes import FlightMode
-from vehicles.network import MavlinkNetwork
+from vehicles.network import MavlinkNetwork, SystemPort
 from vehicles.signing import SigningConfig, apply_signing
 from vehicles.telemetry import Topic
 
@@ -124,7 +124,11 @@ async def test_a_radio_carries_the_fleet_and_each_vehicle_answers_only_its_own(
             assert fleet.endpoints[3].foreign_frames > 0  # ... which ignored it
             positions = {s: link.telemetry.position for s, link in links.items()}
             assert all(p is not None for p in positions.values())
-            assert len({link.transport.peer for link in links.values()}) == 1
+            peers = set()
+            for link in links.values():
+                assert isinstance(link.transport, SystemPort)
+                peers.add(link.transport.peer)
+            assert len(peers) == 1
 
 
 async def test_a_system_the_mission_does_not_name_is_reported_once(tmp_path: Path) -> None:

@@ -171,6 +171,7 @@ async def test_signed_both_ways() -> None:
             await link.arm()
             assert fake.armed
             assert fake.codec.signing.goodsig_count > 0
+            assert isinstance(link.transport, MavlinkTransport)
             assert link.transport.codec.signing.goodsig_count > 0
         finally:
             await link.close()

@@ -42,6 +42,7 @@ from vehicles.mission_protocol import MissionSettings
 from vehicles.modes import FlightMode
 from vehicles.signing import SigningConfig
 from vehicles.telemetry import Topic
+from vehicles.transport import MavlinkTransport
 
 pytestmark = pytest.mark.timeout(30)
 
@@ -164,6 +165,7 @@ async def linked(
         if kind == UDP:
             link = await connect("udpin:127.0.0.1:0", signing=signing, settings=settings)
             stack.push_async_callback(link.close)
+            assert isinstance(link.transport, MavlinkTransport)
             assert link.transport.local_address is not None
             connection = f"udpout:127.0.0.1:{link.transport.local_address[1]}"
         else:
@@ -294,7 +296,13 @@ async def test_guided_moves_arrive_at_the_cell(mission: Mission, kind: str) -> N
     async with asyncio.timeout(BODY_S), linked(mission, kind) as pair:
         await pair.link.set_mode(FlightMode.GUIDED)
         await pair.link.arm()
-        await until(pair.link, Topic.STATUS, lambda: pair.link.status.armed, 2.0)
+        await until(
+            pair.link,
+            Topic.STATUS,
+            lambda: pair.link.status is not None and pair.link.status.armed,
+            2.0,
+        )
+        assert pair.link.status is not None
         assert pair.link.status.flight_mode is FlightMode.GUIDED
         for cell in ROUTE:
             await drive_to(pair, cell)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from collections import deque
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -423,7 +424,12 @@ def test_png_map_needs_a_charger(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("seed", range(6))
 def test_charger_distances_are_breadth_first_moves_over_the_true_map(seed: int) -> None:
-    grid = [mapgen.rooms, mapgen.caves, mapgen.open_field][seed % 3](23, 31, seed)
+    makers: list[Callable[[int, int, int], GridMap]] = [
+        mapgen.rooms,
+        mapgen.caves,
+        mapgen.open_field,
+    ]
+    grid = makers[seed % 3](23, 31, seed)
     expected = np.full(grid.shape, -1)
     expected[grid.charger] = 0
     queue = deque([grid.charger])

@@ -56,6 +56,11 @@ def grid_map() -> GridMap:
 # ---------------------------------------------------------------------- test client
 
 
+def with_seq(seq: int) -> Callable[[Any], bool]:
+    """Whether a message is the one numbered ``seq`` (bound now, not when a loop moved on)."""
+    return lambda m: m.seq == seq
+
+
 class MiniGcs(asyncio.DatagramProtocol):
     """A tiny ground station: listens on a UDP port (udpin), answers whoever talks."""
 
@@ -173,9 +178,7 @@ class MiniGcs(asyncio.DatagramProtocol):
             seq = len(items)
             self.send(self.codec.mission_request_int_encode(1, 1, seq, 0))
             with contextlib.suppress(TimeoutError):
-                item = await self.expect(
-                    "MISSION_ITEM_INT", lambda m, s=seq: m.seq == s, timeout=retry_s
-                )
+                item = await self.expect("MISSION_ITEM_INT", with_seq(seq), timeout=retry_s)
                 items.append(MissionItem.from_message(item))
             if loop.time() > end:
                 raise TimeoutError("download did not finish")

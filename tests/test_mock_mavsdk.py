@@ -10,6 +10,7 @@ import asyncio
 import contextlib
 import socket
 from collections.abc import AsyncIterator
+from typing import TypeVar
 
 import numpy as np
 import pytest
@@ -104,8 +105,11 @@ def _fields(item: SdkItem) -> tuple[object, ...]:
     return tuple("nan" if isinstance(v, float) and v != v else v for v in values)
 
 
-async def _first(stream: AsyncIterator[object], timeout_s: float = 10.0) -> object:
-    async def first() -> object:
+T = TypeVar("T")
+
+
+async def _first(stream: AsyncIterator[T], timeout_s: float = 10.0) -> T:
+    async def first() -> T:
         async for value in stream:
             return value
         raise AssertionError("stream ended")

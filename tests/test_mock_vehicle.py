@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import random
+from typing import TypedDict
 
 import numpy as np
 import pytest
@@ -134,8 +135,14 @@ def test_a_self_charging_pack_charges_only_disarmed_on_a_pad() -> None:
     assert v.battery.remaining_pct == pytest.approx(level)
 
 
+class Thresholds(TypedDict):
+    low_pct: float
+    critical_pct: float
+    emergency_pct: float
+
+
 #: Battery failsafe levels as a user sets them (ArduPilot's defaults have none).
-THRESHOLDS = {"low_pct": 30.0, "critical_pct": 15.0, "emergency_pct": 5.0}
+THRESHOLDS = Thresholds(low_pct=30.0, critical_pct=15.0, emergency_pct=5.0)
 
 
 def test_battery_charge_states() -> None:

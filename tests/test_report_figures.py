@@ -14,7 +14,6 @@ import numpy as np
 import pytest
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
-from matplotlib.transforms import Bbox
 from PIL import Image
 from rich.console import Console
 
@@ -255,7 +254,7 @@ def test_coverage_axes_are_east_and_north_in_metres() -> None:
     assert ax.get_xlim() == pytest.approx((0.0, 8 * 1.5))
     assert ax.get_ylim() == pytest.approx((-6 * 1.5, 0.0))  # row 0 is the northern edge
     # Vehicle 1 starts on the charger, cell (5, 3): 3.5 cells east, 5.5 cells south.
-    east, north = ax.lines[1].get_xydata()[0]
+    east, north = np.asarray(ax.lines[1].get_xydata())[0]
     assert (east, north) == pytest.approx((3.5 * 1.5, -5.5 * 1.5))
 
 
@@ -270,10 +269,10 @@ def test_coverage_ticks_are_whole_metres() -> None:
 def test_backtracking_points_are_hollow_and_named_in_plain_words() -> None:
     result = make_result()  # two BTPs covered, one not
     fig = coverage_plot(result)
-    rings = [c for c in _main_axes(fig).collections if len(c.get_offsets())]
+    rings = [c for c in _main_axes(fig).collections if len(np.asarray(c.get_offsets()))]
     hollow, filled = rings
-    assert len(hollow.get_offsets()) == 2 and len(hollow.get_facecolors()) == 0
-    assert len(filled.get_offsets()) == 1
+    assert len(np.asarray(hollow.get_offsets())) == 2 and len(hollow.get_facecolor()) == 0
+    assert len(np.asarray(filled.get_offsets())) == 1
     texts = _legend_texts(fig)
     assert any(t.startswith("backtracking point") for t in texts)
     assert not any("BTP" in t for t in texts)
@@ -287,7 +286,9 @@ def test_legends_stay_off_the_axes() -> None:
         box = legend.get_window_extent(renderer)
         for ax in fig.axes:
             assert not box.overlaps(ax.get_window_extent(renderer)), ax.get_title()
-            assert not box.overlaps(Bbox(ax.get_tightbbox(renderer))), ax.get_title()
+            tight = ax.get_tightbbox(renderer)
+            assert tight is not None
+            assert not box.overlaps(tight), ax.get_title()
 
 
 def test_plots_over_time_share_one_clock() -> None:

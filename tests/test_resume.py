@@ -13,6 +13,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -202,7 +203,11 @@ def _spawn(*args: str) -> subprocess.Popen[str]:
 def test_a_killed_ground_station_resumes_from_its_log(tmp_path: Path) -> None:
     """The mock fleet in its own process holds on GCS loss; the first ground station
     is killed mid-mission; the second one carries on from the first one's log."""
-    vehicles = [{"type": "rover"}, {"type": "copter", "speed_m_s": 3.0}, {"type": "rover"}]
+    vehicles: list[dict[str, Any]] = [
+        {"type": "rover"},
+        {"type": "copter", "speed_m_s": 3.0},
+        {"type": "rover"},
+    ]
     mission = write_mission(tmp_path, DEMO_MAP.read_text(), vehicles, energy=0.45)
     first_out, second_out = tmp_path / "first", tmp_path / "second"
     speed = ("--speedup", str(KILL_SPEEDUP))

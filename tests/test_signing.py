@@ -36,6 +36,7 @@ from vehicles.endpoints import free_loopback_udp_ports
 from vehicles.keyfile import KeyFile, KeyFileError, load_key_file, loose_permissions
 from vehicles.link import LinkSettings, VehicleLink
 from vehicles.signing import SigningConfig, apply_signing, signing_timestamp
+from vehicles.transport import MavlinkTransport
 
 pytestmark = pytest.mark.timeout(90)
 
@@ -450,6 +451,7 @@ async def _read_until(
 async def test_gcs_ignores_unsigned_or_forged_telemetry_of_its_vehicle(tmp_path: Path) -> None:
     async with signed_vehicle(tmp_path) as (fleet, link, _keys):
         seen: list[Any] = []
+        assert isinstance(link.transport, MavlinkTransport)
         link.transport.add_tap(lambda direction, _frame, msg: seen.append(msg))
         vehicle_address = link.transport.peer
         gcs_port = int(load_mission(tmp_path / "mission.yaml").fleet[0].connection.rsplit(":")[-1])

@@ -63,7 +63,7 @@ def browser() -> Iterator[Any]:
 def page_address(process: subprocess.Popen[str], timeout_s: float = 60.0) -> str:
     """The page's address, from the line the command prints on stderr."""
     assert process.stderr is not None
-    seen = []
+    seen: list[str] = []
     fd = process.stderr.fileno()
     while True:
         ready, _, _ = select.select([fd], [], [], timeout_s)

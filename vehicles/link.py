@@ -19,7 +19,7 @@ import contextlib
 import dataclasses
 import logging
 import math
-from collections.abc import AsyncIterator, Callable, Iterable, Sequence
+from collections.abc import AsyncGenerator, Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any, Self
@@ -314,7 +314,7 @@ class VehicleLink:
         assert self.telemetry.status is not None
         return self.telemetry.status
 
-    def stream(self, topic: Topic) -> AsyncIterator[Any]:
+    def stream(self, topic: Topic) -> AsyncGenerator[Any, None]:
         """Updates on ``topic`` from now on (see ``vehicles.telemetry.Topic``)."""
         return self.streams.stream(topic)
 
@@ -329,7 +329,7 @@ class VehicleLink:
                     if predicate(value):
                         return value
         finally:
-            await updates.aclose()  # type: ignore[attr-defined]
+            await updates.aclose()
         raise TransportClosed("stream ended")
 
     # -- background tasks ---------------------------------------------------------------

@@ -13,7 +13,7 @@ import asyncio
 import contextlib
 import math
 from collections import defaultdict
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncGenerator, Callable
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from typing import Any, TypeAlias
@@ -396,7 +396,7 @@ class TopicStreams:
     def subscriber_count(self, topic: str) -> int:
         return len(self._subscribers.get(topic, ()))
 
-    async def stream(self, topic: str, size: int = STREAM_QUEUE_SIZE) -> AsyncIterator[Any]:
+    async def stream(self, topic: str, size: int = STREAM_QUEUE_SIZE) -> AsyncGenerator[Any, None]:
         """Values published on ``topic`` from now on. Close it (``aclose()``, or
         ``contextlib.aclosing``) or break out of ``async for`` to unsubscribe."""
         queue: asyncio.Queue[Any] = asyncio.Queue(size)
