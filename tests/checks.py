@@ -10,7 +10,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from gcs.mcap_log import McapMissionLog
+from gcs.log.mcap_log import McapMissionLog
 from gcs.mission import (
     Mission,
     Origin,
@@ -20,8 +20,8 @@ from gcs.mission import (
     VehicleType,
     default_connection,
 )
+from gcs.outcome.result import RunResult
 from gcs.preflight import charger_distances
-from gcs.result import RunResult
 from planner.coordinator import EventKind, PlannerEvent
 from planner.grid import Cell, manhattan
 from sitl_mock.gridmap import GridMap

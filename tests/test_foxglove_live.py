@@ -18,8 +18,8 @@ import pytest
 from mcap.reader import make_reader
 from websockets.asyncio.client import ClientConnection, connect
 
-from gcs.foxglove_live import LiveView
-from gcs.mcap_log import SCHEMAS
+from gcs.log.foxglove_live import LiveView
+from gcs.log.mcap_log import SCHEMAS
 from planner.grid import CellState
 from tests.checks import open_mission_log
 from tests.test_live_mission import SMALL, write_mission

@@ -25,13 +25,13 @@ from rich.console import Console
 from rich.table import Table
 
 from gcs.bench.common import write_json
-from gcs.console import output_console
+from gcs.commands.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
-from gcs.log_reader import LogError, read_contents, read_log
+from gcs.log.reader import LogError, read_contents, read_log
 from gcs.mission import MissionError, load_mission
 from gcs.options.bench import LONG_CUT_S, SHORT_CUT_S, STRIKE_S
 from gcs.options.run import LOST_AFTER_S
-from gcs.report import report_dict
+from gcs.outcome.report import report_dict
 from vehicles.endpoints import free_loopback_udp_ports
 
 #: Each sudden battery sag of the battery row (percent).

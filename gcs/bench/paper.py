@@ -18,11 +18,12 @@ from pathlib import Path
 from rich.table import Table
 
 from gcs.bench.common import write_json
-from gcs.console import output_console
+from gcs.commands.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.mission import Mission, MissionError, load_mission
-from gcs.result import RunResult
-from gcs.simulate import SimOptions, planner_settings, simulate
+from gcs.offline.simulate import SimOptions, simulate
+from gcs.outcome.result import RunResult
+from gcs.planning import planner_settings
 from planner.settings import BmRule, PlannerSettings, TargetPolicy
 
 #: The paper's Table 1 (scenario 1, 2068 m2): agents -> (charges per agent, s per step, iterations).

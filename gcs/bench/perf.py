@@ -27,17 +27,18 @@ from rich.table import Table
 from gcs.bench.common import chosen, parse_settings, positive_numbers, write_json
 from gcs.bench.machine_pace import reference_seconds
 from gcs.bench.web import Watchers, watched
-from gcs.console import output_console
+from gcs.commands.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.generated_missions import GENERATORS, MAP_SEED, RESERVE_PCT, case_mission
 from gcs.live.mission import LiveOptions, MissionRefused, run_live
 from gcs.live.shared import Level
+from gcs.log.mission_log import NullLog
 from gcs.mission import Mission, load_mission
-from gcs.mission_log import NullLog
+from gcs.offline.simulate import SimOptions, simulate
 from gcs.options.bench import LIVE_TIME_LIMIT_S, LOOP_BEHIND_MS, PERF_LINKS
-from gcs.report import report_dict
-from gcs.result import RunResult
-from gcs.simulate import SimOptions, planner_settings, simulate
+from gcs.outcome.report import report_dict
+from gcs.outcome.result import RunResult
+from gcs.planning import planner_settings
 from planner import native
 from sitl_mock import mapgen
 from sitl_mock.gridmap import GridMap

@@ -18,25 +18,25 @@ import sys
 
 from rich.console import Console
 
+from gcs.commands.console import output_console
+from gcs.commands.keys import load_keys
 from gcs.commands.plan import LOG_NAME, load, open_log, save_outputs
 from gcs.commands.web_page import start_web, wants_web, web_view
-from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
-from gcs.foxglove_live import LiveView, LiveViewError
-from gcs.keys import load_keys
 from gcs.live.agent import AgentSettings
 from gcs.live.display import LiveDisplay
 from gcs.live.mission import LiveOptions, MissionRefused, run_live
 from gcs.live.resume import ResumeError, load_resume_point
 from gcs.live.shared import Level
-from gcs.mcap_log import SCHEMAS, LogSink, McapMissionLog
+from gcs.log.foxglove_live import LiveView, LiveViewError
+from gcs.log.mcap_log import SCHEMAS, LogSink, McapMissionLog
+from gcs.log.mission_log import MissionLog, NullLog
 from gcs.mission import Mission, on_one_link, with_connections
-from gcs.mission_log import MissionLog, NullLog
 from gcs.mock_fleet import SimFaults
 from gcs.options.run import SIM_SPEEDUP
+from gcs.outcome.report import print_summary
+from gcs.outcome.result import RunResult
 from gcs.preflight import check_range
-from gcs.report import print_summary
-from gcs.result import RunResult
 from gcs.web.feed import LiveFeed
 from gcs.web.server import WebView
 from sitl_mock.connection import ConnectionStringError, mirror

@@ -68,7 +68,7 @@ _ERROR_SEVERITY = mavlink.MAV_SEVERITY_ERROR
 
 
 def log_level(severity: int) -> str:
-    """The mission log's level (``gcs.mcap_log.LOG_LEVELS``) of a STATUSTEXT severity:
+    """The mission log's level (``gcs.log.mcap_log.LOG_LEVELS``) of a STATUSTEXT severity:
     EMERGENCY, ALERT and CRITICAL are fatal, ERROR an error, WARNING a warning, NOTICE
     and INFO information, DEBUG debug."""
     if severity <= mavlink.MAV_SEVERITY_CRITICAL:

@@ -48,12 +48,12 @@ from gcs.live.record import MissionRecord
 from gcs.live.resume import ResumePoint, resumed_text
 from gcs.live.shared import Level, Notify, Phase, SharedPlanner, VehicleView
 from gcs.live.status import StatusWatch
+from gcs.log.mission_log import MissionLog, NullLog
 from gcs.mission import Mission, Sensing, Steering, VehicleSpec
-from gcs.mission_log import MissionLog, NullLog
 from gcs.mock_fleet import SimFaults, sim_configs
+from gcs.outcome.result import RunResult
 from gcs.percentile import percentile
-from gcs.result import RunResult
-from gcs.simulate import planner_settings, prior_map
+from gcs.planning import planner_settings, prior_map
 from gcs.warm_up import warm_up_planner
 from planner.coordinator import Coordinator
 from planner.settings import AgentSpec

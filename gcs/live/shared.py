@@ -25,7 +25,7 @@ from enum import StrEnum
 from typing import Any, TypeVar
 
 from gcs.live.record import MissionRecord
-from gcs.mission_log import MissionLog
+from gcs.log.mission_log import MissionLog
 from planner.coordinator import (
     WAIT,
     Action,

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from gcs.live.shared import Phase, SharedPlanner, VehicleView
-from gcs.mission_log import WAY_CELLS, MissionLog, MissionProgress, VehicleStatus
+from gcs.log.mission_log import WAY_CELLS, MissionLog, MissionProgress, VehicleStatus
 from planner.belief import UNREACHED
 from planner.coordinator import AgentMode
 from planner.grid import Cell

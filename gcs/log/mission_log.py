@@ -4,7 +4,7 @@ Times are mission seconds (simulated time under a speed-up; iterations in an
 offline run). Both the live mission and the offline simulation write through
 this interface, so that a log looks the same whichever produced it. The live
 mission says when its mission time 0 is (``start``): the MCAP log stamps its
-messages in UTC from there (:mod:`gcs.mcap_log`).
+messages in UTC from there (:mod:`gcs.log.mcap_log`).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from typing import Protocol
 
 import numpy as np
 
-from gcs.result import RunResult
+from gcs.outcome.result import RunResult
 from planner.grid import Cell, CellState, Direction
 
 

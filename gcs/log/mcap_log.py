@@ -7,7 +7,7 @@ batteries, events) and the final result (so ``gcs report`` needs nothing else).
 Robustness: the file is written in small chunks and flushed at least every
 ``flush_s`` wall seconds, so a ground station that dies leaves a file that is
 readable up to its last flushed chunk (only the summary section is missing);
-:mod:`gcs.log_reader` reads such files.
+:mod:`gcs.log.reader` reads such files.
 
 Cost: ``agent_state`` may run thousands of times per second in an offline run,
 so it only formats three small messages (pose and fix only when they change);
@@ -54,9 +54,9 @@ from typing import IO, Any, Protocol
 import numpy as np
 from mcap.writer import CompressionType, Writer
 
+from gcs.log.mission_log import MissionProgress, VehicleStatus
 from gcs.mission import Mission
-from gcs.mission_log import MissionProgress, VehicleStatus
-from gcs.result import AgentTrace, BtpRecord, RunResult
+from gcs.outcome.result import AgentTrace, BtpRecord, RunResult
 from planner.grid import Cell, CellState, Direction
 from vehicles.geo import GeoFrame
 
@@ -478,7 +478,7 @@ class _Vehicle:
 
 
 class McapMissionLog:
-    """Writes a mission to an MCAP file; implements :class:`gcs.mission_log.MissionLog`.
+    """Writes a mission to an MCAP file; implements :class:`gcs.log.mission_log.MissionLog`.
 
     ``scene_period_s`` is the shortest mission time between two track or BTP
     scene updates; later in a long mission the track update waits at least
