@@ -65,3 +65,16 @@ def test_the_live_mission_imports_no_command_line() -> None:
         if line.startswith(tuple(f"{kind} {m}" for kind in ("from", "import") for m in cli))
     ]
     assert offenders == []
+
+
+def test_the_live_mission_builds_no_simulated_fleet() -> None:
+    """A rehearsal's simulated fleet is built by its caller and handed to ``run_live``:
+    ``gcs.live`` imports neither the mock fleet nor its faults."""
+    sim = ("gcs.mock_fleet", "sitl_mock.fleet", "sitl_mock.faults")
+    offenders = [
+        f"{path.relative_to(ROOT)}: {line}"
+        for path in sorted((ROOT / "gcs" / "live").glob("*.py"))
+        for line in path.read_text(encoding="utf-8").splitlines()
+        if line.startswith(tuple(f"{kind} {m}" for kind in ("from", "import") for m in sim))
+    ]
+    assert offenders == []

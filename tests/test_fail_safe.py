@@ -25,8 +25,8 @@ from rich.console import Console
 
 from gcs.cli import main
 from gcs.live.display import LiveDisplay
-from gcs.live.mission import fence_vertices
 from gcs.live.pilot import Pilot
+from gcs.live.readiness import fence_vertices
 from gcs.live.shared import Level
 from gcs.log.reader import LogError, read_log
 from gcs.mission import Mission

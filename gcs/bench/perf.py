@@ -30,10 +30,12 @@ from gcs.bench.web import Watchers, watched
 from gcs.commands.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.generated_missions import GENERATORS, MAP_SEED, RESERVE_PCT, case_mission
-from gcs.live.mission import LiveOptions, MissionRefused, run_live
+from gcs.live.mission import run_live
+from gcs.live.run import LiveOptions, MissionRefused
 from gcs.live.shared import Level
 from gcs.log.mission_log import NullLog
 from gcs.mission import Mission, load_mission
+from gcs.mock_fleet import MockFleetRehearsal, SimFaults
 from gcs.offline.simulate import SimOptions, simulate
 from gcs.options.bench import LIVE_TIME_LIMIT_S, LOOP_BEHIND_MS, PERF_LINKS
 from gcs.outcome.report import report_dict
@@ -253,7 +255,7 @@ def run_live_case(
     row: dict[str, Any] = {"vehicles": vehicles, "links": links, "web_clients": web_clients}
     with tempfile.TemporaryDirectory(prefix="gcs-bench-perf-") as tmp:
         mission = load_mission(write_live_mission(Path(tmp), vehicles, links))
-        options = LiveOptions(sim=True, speedup=speedup, time_limit_s=time_limit_s)
+        options = LiveOptions(speedup=speedup, time_limit_s=time_limit_s)
         t0 = time.perf_counter()
         try:
             result, watchers = asyncio.run(_fly(mission, options, web_clients))
@@ -291,10 +293,11 @@ async def _fly(
     def quiet(_text: str, _level: Level, _sysid: int | None) -> None:
         pass
 
+    sim = MockFleetRehearsal(mission, SimFaults(), seed=options.seed)
     if not web_clients:
-        return await run_live(mission, options, NullLog(), quiet, asyncio.Event()), None
+        return await run_live(mission, options, NullLog(), quiet, asyncio.Event(), sim=sim), None
     async with watched(mission, web_clients) as (log, watchers):
-        result = await run_live(mission, options, log, quiet, asyncio.Event())
+        result = await run_live(mission, options, log, quiet, asyncio.Event(), sim=sim)
     return result, watchers
 
 

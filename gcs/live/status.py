@@ -19,7 +19,7 @@ from planner.coordinator import AgentMode
 from planner.grid import Cell
 
 if TYPE_CHECKING:
-    from gcs.live.mission import LiveRun
+    from gcs.live.run import LiveRun
 
 #: A vehicle's way ahead and the length of its way home (None: no known way).
 Planned = tuple[tuple[Cell, ...], float | None]
