@@ -25,7 +25,7 @@ from rich.console import Console
 from rich.table import Table
 
 from gcs.bench.common import write_json
-from gcs.commands.console import output_console
+from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.log.reader import LogError, read_contents, read_log
 from gcs.mission import MissionError, load_mission

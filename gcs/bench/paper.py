@@ -18,7 +18,7 @@ from pathlib import Path
 from rich.table import Table
 
 from gcs.bench.common import write_json
-from gcs.commands.console import output_console
+from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.mission import Mission, MissionError, load_mission
 from gcs.offline.simulate import SimOptions, simulate

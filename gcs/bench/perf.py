@@ -27,7 +27,7 @@ from rich.table import Table
 from gcs.bench.common import chosen, parse_settings, positive_numbers, write_json
 from gcs.bench.machine_pace import reference_seconds
 from gcs.bench.web import Watchers, watched
-from gcs.commands.console import output_console
+from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.generated_missions import GENERATORS, MAP_SEED, RESERVE_PCT, case_mission
 from gcs.live.mission import run_live

@@ -27,7 +27,7 @@ from gcs.bench.common import (
     positive_numbers,
     write_json,
 )
-from gcs.commands.console import output_console
+from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
 from gcs.generated_missions import MapMaker, case_mission
 from gcs.offline.simulate import SimOptions, simulate

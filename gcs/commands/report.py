@@ -10,8 +10,8 @@ from pathlib import Path
 
 from rich.console import Console
 
-from gcs.commands.console import output_console
 from gcs.commands.web_page import start_web, wants_web, web_view
+from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.log.reader import LogError, read_contents, result_of
 from gcs.outcome.figures import write_figures

@@ -18,10 +18,10 @@ import sys
 
 from rich.console import Console
 
-from gcs.commands.console import output_console
 from gcs.commands.keys import load_keys
 from gcs.commands.plan import LOG_NAME, load, open_log, save_outputs
 from gcs.commands.web_page import start_web, wants_web, web_view
+from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
 from gcs.live.agent import AgentSettings
 from gcs.live.display import LiveDisplay

@@ -11,8 +11,8 @@ from dataclasses import dataclass, field
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from rich.table import Table
 
-from gcs.commands.console import output_console
 from gcs.commands.mission import endpoint_from_args, link_signing
+from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK
 from vehicles.endpoints import Endpoint
 from vehicles.errors import LinkError, TransportClosed
