@@ -506,16 +506,33 @@ def planner_build() -> str:
     return "Python (installed without compiling: STAYING_ALIVE_PURE, or no C compiler)"
 
 
+@dataclass(frozen=True)
+class _PerfCases:
+    """The cases ``gcs bench perf`` was asked for, checked before anything runs."""
+
+    kinds: list[str]
+    sizes: list[int]
+    agents: list[int]
+    vehicles: list[int]
+    settings: dict[str, Any]
+
+    @classmethod
+    def of(cls, args: argparse.Namespace) -> _PerfCases:
+        return cls(
+            sizes=positive_numbers(args.sizes, "sizes"),
+            agents=positive_numbers(args.agents, "agents"),
+            vehicles=positive_numbers(args.vehicles, "vehicles"),
+            kinds=chosen(args.kinds, "kinds", list(GENERATORS)),
+            settings=parse_settings(args.changes, "set"),
+        )
+
+
 def run_perf(args: argparse.Namespace) -> int:
-    sizes = positive_numbers(args.sizes, "sizes")
-    agents = positive_numbers(args.agents, "agents")
-    vehicles = positive_numbers(args.vehicles, "vehicles")
-    kinds = chosen(args.kinds, "kinds", list(GENERATORS))
+    cases = _PerfCases.of(args)
     if args.live_speedup <= 0 or args.case_limit <= 0 or args.live_time_limit <= 0:
         raise UsageError("--live-speedup, --case-limit and --live-time-limit must be positive")
     if args.web_clients < 0 or args.repeat < 1:
         raise UsageError("--web-clients must be 0 or more, --repeat 1 or more")
-    settings = parse_settings(args.changes, "set")
     console = output_console(quiet=False)
     progress = Console(stderr=True)
     pace_s = reference_seconds()
@@ -533,31 +550,11 @@ def run_perf(args: argparse.Namespace) -> int:
     planner_rows: list[dict[str, Any]] = []
     live_rows: list[dict[str, Any]] = []
     if not args.skip_planner:
-        progress.print("planner: compiling ...")
-        compile_planner(kinds, settings)
-        for kind in kinds:
-            for size in sizes:
-                for n in agents:
-                    progress.print(f"planner: {kind} {size}x{size}, {n} agents ...")
-                    case = PlannerCase(kind, size, n, tuple(settings.items()))
-                    planner_rows.append(run_planner_case(case, args.case_limit))
+        planner_rows = _planner_rows(cases, args.case_limit, progress)
         figures["planner"] = planner_rows
-        console.print(planner_table(planner_rows, settings))
+        console.print(planner_table(planner_rows, cases.settings))
     if not args.skip_live:
-        links = PERF_LINKS if args.links == "both" else (args.links,)
-        for n in vehicles:
-            for link in links:
-                progress.print(
-                    f"live: {n} vehicles at speed-up {args.live_speedup:g}, {link} link ..."
-                )
-                # With the page and without, alternately: the machine's drift shows on both.
-                sides = [0, args.web_clients] if args.web_clients else [0]
-                for clients in sides * args.repeat:
-                    if clients:
-                        progress.print(f"live: the same, the web page read by {clients} ...")
-                    live_rows.append(
-                        run_live_case(n, args.live_speedup, link, clients, args.live_time_limit)
-                    )
+        live_rows = _live_rows(cases, args, progress)
         figures["live"] = {"speedup": args.live_speedup, "runs": live_rows}
         console.print(live_table(live_rows, args.live_speedup))
         pairs = web_pairs(live_rows)
@@ -571,3 +568,37 @@ def run_perf(args: argparse.Namespace) -> int:
     write_json(args.json, figures, console)
     ok = all(_complete(row) for row in planner_rows + live_rows)
     return EXIT_OK if ok else EXIT_FAILED
+
+
+def _planner_rows(cases: _PerfCases, limit_s: float, progress: Console) -> list[dict[str, Any]]:
+    """The planner's cases: every map kind, size and number of agents asked for."""
+    progress.print("planner: compiling ...")
+    compile_planner(cases.kinds, cases.settings)
+    rows = []
+    for kind in cases.kinds:
+        for size in cases.sizes:
+            for n in cases.agents:
+                progress.print(f"planner: {kind} {size}x{size}, {n} agents ...")
+                case = PlannerCase(kind, size, n, tuple(cases.settings.items()))
+                rows.append(run_planner_case(case, limit_s))
+    return rows
+
+
+def _live_rows(
+    cases: _PerfCases, args: argparse.Namespace, progress: Console
+) -> list[dict[str, Any]]:
+    """The live cases: each fleet size and link kind, with the web page and without,
+    alternately (the machine's drift then shows on both), ``--repeat`` times."""
+    links = PERF_LINKS if args.links == "both" else (args.links,)
+    rows = []
+    for n in cases.vehicles:
+        for link in links:
+            progress.print(f"live: {n} vehicles at speed-up {args.live_speedup:g}, {link} link ...")
+            sides = [0, args.web_clients] if args.web_clients else [0]
+            for clients in sides * args.repeat:
+                if clients:
+                    progress.print(f"live: the same, the web page read by {clients} ...")
+                rows.append(
+                    run_live_case(n, args.live_speedup, link, clients, args.live_time_limit)
+                )
+    return rows

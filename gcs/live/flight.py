@@ -171,19 +171,7 @@ async def fly(
     statuses = asyncio.ensure_future(
         asyncio.sleep(0) if isinstance(mission_log, NullLog) else watch.keep_writing(mission_log)
     )
-    agents = {
-        v.sysid: Agent(
-            v,
-            links[v.sysid],
-            pilots[v.sysid],
-            planner,
-            estimators[v.sysid],
-            run.views[v.sysid],
-            mission.map,
-            options.agent,
-        )
-        for v in mission.fleet
-    }
+    agents = _agents(run, pilots, planner, estimators, options)
     # Every event from here is shown and logged by ``announce``: the two never differ.
     count = f"{len(agents)} vehicle{'' if len(agents) == 1 else 's'}"
     announce(planner, f"mission {mission.name} starts with {count}")
@@ -205,6 +193,29 @@ async def fly(
     )
     mission_log.result(planner.t_s, result)
     return result
+
+
+def _agents(
+    run: LiveRun,
+    pilots: dict[int, Pilot],
+    planner: SharedPlanner,
+    estimators: dict[int, EnergyEstimator],
+    options: LiveOptions,
+) -> dict[int, Agent]:
+    """One agent per vehicle, each with its link, pilot, energy estimate and view."""
+    return {
+        v.sysid: Agent(
+            v,
+            run.links[v.sysid],
+            pilots[v.sysid],
+            planner,
+            estimators[v.sysid],
+            run.views[v.sysid],
+            run.mission.map,
+            options.agent,
+        )
+        for v in run.mission.fleet
+    }
 
 
 async def _run_agents(

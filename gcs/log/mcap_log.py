@@ -477,31 +477,56 @@ class _Vehicle:
     heading_deg: float = 0.0
 
 
-class McapMissionLog:
-    """Writes a mission to an MCAP file; implements :class:`gcs.log.mission_log.MissionLog`.
+@dataclass(frozen=True)
+class LoggedMission:
+    """What the log says of the mission in ``/run/meta``, and the frame it draws in."""
 
-    ``scene_period_s`` is the shortest mission time between two track or BTP
+    name: str
+    shape: tuple[int, int]
+    cell_size_m: float
+    charger: Cell
+    geo: GeoFrame
+    reserve_pct: float
+    #: The mission's own count of free cells, against which a log cut short is reported.
+    free_cells: int | None = None
+
+    @classmethod
+    def of(cls, mission: Mission, free_cells: int | None = None) -> LoggedMission:
+        return cls(
+            name=mission.name,
+            shape=mission.map.shape,
+            cell_size_m=mission.cell_size_m,
+            charger=mission.charger,
+            geo=mission.geo,
+            reserve_pct=mission.planner.reserve_pct,
+            free_cells=free_cells,
+        )
+
+
+@dataclass(frozen=True)
+class LogSettings:
+    """How the file is written: chunks (bytes) flushed at least every ``flush_s`` wall
+    seconds; ``scene_period_s`` is the shortest mission time between two track or BTP
     scene updates; later in a long mission the track update waits at least
-    ``scene_fraction`` of the elapsed time, since each update holds the whole
-    tracks (so that seeking in Foxglove shows them) and must not make the file
-    grow with the square of the mission's length.
-    """
+    ``scene_fraction`` of the elapsed time, since each update holds the whole tracks (so
+    that seeking in Foxglove shows them) and must not make the file grow with the
+    square of the mission's length."""
+
+    chunk_size: int = 64 * 1024
+    flush_s: float = 1.0
+    scene_period_s: float = 5.0
+    scene_fraction: float = 0.05
+
+
+class McapMissionLog:
+    """Writes a mission to an MCAP file; implements :class:`gcs.log.mission_log.MissionLog`."""
 
     def __init__(
         self,
         path: Path | str | None,
+        mission: LoggedMission,
+        settings: LogSettings = LogSettings(),
         *,
-        mission_name: str,
-        shape: tuple[int, int],
-        cell_size_m: float,
-        charger: Cell,
-        geo: GeoFrame,
-        reserve_pct: float,
-        free_cells: int | None = None,
-        chunk_size: int = 64 * 1024,
-        flush_s: float = 1.0,
-        scene_period_s: float = 5.0,
-        scene_fraction: float = 0.05,
         sinks: Sequence[LogSink] = (),
         on_failure: Callable[[str], None] | None = None,
         started_unix_s: float | None = None,
@@ -523,23 +548,19 @@ class McapMissionLog:
         if self.path is not None:
             self._file = open(self.path, "wb")  # noqa: SIM115 - closed in close()
             self._writer = Writer(
-                self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD
+                self._file, chunk_size=settings.chunk_size, compression=CompressionType.ZSTD
             )
             self._writer.start(profile=PROFILE, library="staying-alive-gcs")
         self._sinks = tuple(sinks)
+        self._mission = mission
+        self._settings = settings
         #: What was last written of each vehicle's status and of the progress.
         self._statuses: dict[int, VehicleStatus] = {}
         self._progress: MissionProgress | None = None
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._vehicles: dict[int, _Vehicle] = {}
-        self._shape = shape
-        self._cell_size_m = cell_size_m
-        self._geo = geo
-        self._flush_s = flush_s
         self._last_flush = time.monotonic()
-        self._scene_period_s = scene_period_s
-        self._scene_fraction = scene_fraction
         self._next_tracks_t = 0.0
         self._tracks_dirty = False
         self._btps: list[Cell] | None = None
@@ -552,26 +573,30 @@ class McapMissionLog:
         self.on_failure = on_failure
         #: UTC nanoseconds of mission time 0: every stamp is this plus the mission time.
         self.started_unix_ns = _unix_ns(started_unix_s)
-        self._meta = (mission_name, charger, reserve_pct, free_cells)
         self._write_meta()
         self._write_frame()
         self.flush()
 
     @classmethod
     def for_mission(
-        cls, mission: Mission, path: Path | str | None, **options: Any
+        cls,
+        mission: Mission,
+        path: Path | str | None,
+        *,
+        free_cells: int | None = None,
+        settings: LogSettings = LogSettings(),
+        sinks: Sequence[LogSink] = (),
+        on_failure: Callable[[str], None] | None = None,
+        started_unix_s: float | None = None,
     ) -> McapMissionLog:
-        """The log of ``mission`` at ``path`` (None: no file); ``options``: the log's own
-        settings (``sinks``, ``free_cells``, chunking...)."""
+        """The log of ``mission`` at ``path`` (None: no file)."""
         return cls(
             path,
-            mission_name=mission.name,
-            shape=mission.map.shape,
-            cell_size_m=mission.cell_size_m,
-            charger=mission.charger,
-            geo=mission.geo,
-            reserve_pct=mission.planner.reserve_pct,
-            **options,
+            LoggedMission.of(mission, free_cells),
+            settings,
+            sinks=sinks,
+            on_failure=on_failure,
+            started_unix_s=started_unix_s,
         )
 
     def start(self, unix_s: float | None = None) -> None:
@@ -627,7 +652,7 @@ class McapMissionLog:
             self._fail(exc)
             return
         now = time.monotonic()
-        if now - self._last_flush >= self._flush_s:
+        if now - self._last_flush >= self._settings.flush_s:
             self.flush()
 
     def _fail(self, exc: BaseException) -> None:
@@ -662,20 +687,20 @@ class McapMissionLog:
         """What the run is about, first in the file: with the mission's own count of free
         cells, against which a log cut short is reported, and the wall clock at mission
         time 0 (``started_unix_s``, and exactly, ``started_unix_ns``)."""
-        mission, charger, reserve_pct, free_cells = self._meta
-        geo = self._geo
+        mission = self._mission
+        geo = mission.geo
         meta: dict[str, Any] = {
-            "mission": mission,
-            "shape": list(self._shape),
-            "cell_size_m": self._cell_size_m,
-            "charger": list(charger),
-            "reserve_pct": reserve_pct,
+            "mission": mission.name,
+            "shape": list(mission.shape),
+            "cell_size_m": mission.cell_size_m,
+            "charger": list(mission.charger),
+            "reserve_pct": mission.reserve_pct,
             "origin": {"lat_deg": geo.lat_deg, "lon_deg": geo.lon_deg, "alt_m": geo.alt_m},
             "started_unix_s": self.started_unix_ns / 1e9,
             "started_unix_ns": self.started_unix_ns,
         }
-        if free_cells is not None:
-            meta["free_cells"] = free_cells
+        if mission.free_cells is not None:
+            meta["free_cells"] = mission.free_cells
         self._json(META_TOPIC, META_SCHEMA, 0.0, meta)
 
     def _write_frame(self) -> None:
@@ -750,7 +775,7 @@ class McapMissionLog:
         lon_deg: float | None,
     ) -> None:
         """LocationFix and PoseInFrame, formatted by hand: this runs at every move."""
-        geo = self._geo
+        geo = self._mission.geo
         if lat_deg is None or lon_deg is None:
             north, east = geo.cell_centre_local(cell)
             lat_deg, lon_deg = geo.local_to_geo(north, east)
@@ -778,11 +803,13 @@ class McapMissionLog:
 
     def _emit_tracks(self, t_s: float) -> None:
         """Every vehicle's whole track, so that a seek in Foxglove shows it too."""
-        self._next_tracks_t = t_s + max(self._scene_period_s, self._scene_fraction * t_s)
+        self._next_tracks_t = t_s + max(
+            self._settings.scene_period_s, self._settings.scene_fraction * t_s
+        )
         if not self._tracks_dirty:
             return
         self._tracks_dirty = False
-        width = 0.15 * self._cell_size_m
+        width = 0.15 * self._mission.cell_size_m
         entities = []
         for v in self._vehicles.values():
             if not v.track:
@@ -807,11 +834,11 @@ class McapMissionLog:
 
     def _emit_btps(self, t_s: float) -> None:
         cells, self._btps = self._btps or [], None
-        self._next_btps_t = t_s + self._scene_period_s
-        size = 0.5 * self._cell_size_m
+        self._next_btps_t = t_s + self._settings.scene_period_s
+        size = 0.5 * self._mission.cell_size_m
         spheres = []
         for cell in cells:
-            north, east = self._geo.cell_centre_local(cell)
+            north, east = self._mission.geo.cell_centre_local(cell)
             spheres.append(
                 {
                     "pose": {
@@ -842,11 +869,11 @@ class McapMissionLog:
             "timestamp": _stamp(self._ns(t_s)),
             "frame_id": MAP_FRAME,
             "pose": {
-                "position": {"x": 0.0, "y": -rows * self._cell_size_m, "z": 0.0},
+                "position": {"x": 0.0, "y": -rows * self._mission.cell_size_m, "z": 0.0},
                 "orientation": IDENTITY,
             },
             "column_count": cols,
-            "cell_size": {"x": self._cell_size_m, "y": self._cell_size_m},
+            "cell_size": {"x": self._mission.cell_size_m, "y": self._mission.cell_size_m},
             "row_stride": cols * stride,
             "cell_stride": stride,
             "fields": [{"name": n, "offset": k, "type": 1} for k, n in enumerate(names)],
