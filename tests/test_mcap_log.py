@@ -15,8 +15,8 @@ from mcap.writer import Writer
 
 from gcs.cli import main
 from gcs.commands.plan import LOG_NAME
-from gcs.log.mcap_log import SCHEMAS, codes_from_grid, grid_codes
 from gcs.log.reader import LogError, mission_s, read_contents, read_log, reconstruct
+from gcs.log.topics import SCHEMAS, codes_from_grid, grid_codes
 from gcs.mission import Mission
 from gcs.offline.simulate import simulate
 from gcs.outcome.figures import BATTERY_PNG, COVERAGE_PNG, EXPLORED_PNG, PATH_LENGTH_PNG

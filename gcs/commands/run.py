@@ -30,8 +30,9 @@ from gcs.live.resume import ResumeError, ResumePoint, load_resume_point
 from gcs.live.run import LiveOptions, MissionRefused, SimulatedFleet
 from gcs.live.shared import Level
 from gcs.log.foxglove_live import LiveView, LiveViewError
-from gcs.log.mcap_log import SCHEMAS, LogSink, McapMissionLog
+from gcs.log.mcap_log import LogSink, McapMissionLog
 from gcs.log.mission_log import MissionLog, NullLog
+from gcs.log.topics import SCHEMAS
 from gcs.mission import Mission, on_one_link, with_connections
 from gcs.mock_fleet import MockFleetRehearsal, SimFaults
 from gcs.options.run import SIM_SPEEDUP

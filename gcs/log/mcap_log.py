@@ -41,7 +41,6 @@ fatal).
 
 from __future__ import annotations
 
-import base64
 import contextlib
 import json
 import math
@@ -54,406 +53,47 @@ from typing import IO, Any, Protocol
 import numpy as np
 from mcap.writer import CompressionType, Writer
 
-from gcs.log.mission_log import MissionProgress, VehicleStatus
+from gcs.log.mission_log import GeoFix, MissionProgress, VehicleStatus
+from gcs.log.result_json import result_to_json
+from gcs.log.scenes import (
+    IDENTITY,
+    btps_entity,
+    grid_message,
+    move_heading,
+    stamp,
+    track_entity,
+)
+from gcs.log.topics import (
+    BATTERY_SCHEMA,
+    BTPS_TOPIC,
+    EVENTS_TOPIC,
+    LOG_LEVELS,
+    MAP_FRAME,
+    MAP_TOPIC,
+    META_SCHEMA,
+    META_TOPIC,
+    PROFILE,
+    PROGRESS_SCHEMA,
+    PROGRESS_TOPIC,
+    RAW_ENCODING,
+    RESULT_SCHEMA,
+    RESULT_TOPIC,
+    SCHEMAS,
+    STATUS_SCHEMA,
+    TF_TOPIC,
+    TRACK_RGB,
+    TRACKS_TOPIC,
+    sensed_code,
+    status_topic,
+)
 from gcs.mission import Mission
-from gcs.outcome.result import AgentTrace, BtpRecord, RunResult
+from gcs.outcome.result import RunResult
 from planner.grid import Cell, CellState, Direction
 from vehicles.geo import GeoFrame
-
-PROFILE = ""
-MAP_FRAME = "map"
-#: Encoding of the raw MAVLink channels: each message is one frame's bytes as on the wire.
-RAW_ENCODING = "mavlink"
-
-META_TOPIC = "/run/meta"
-RESULT_TOPIC = "/run/result"
-MAP_TOPIC = "/map"
-EVENTS_TOPIC = "/events"
-TRACKS_TOPIC = "/scene/tracks"
-BTPS_TOPIC = "/scene/btps"
-TF_TOPIC = "/tf"
-PROGRESS_TOPIC = "/run/progress"
-
-META_SCHEMA = "staying_alive.RunMeta"
-RESULT_SCHEMA = "staying_alive.RunResult"
-BATTERY_SCHEMA = "staying_alive.VehicleState"
-STATUS_SCHEMA = "staying_alive.VehicleStatus"
-PROGRESS_SCHEMA = "staying_alive.MissionProgress"
-
-
-def status_topic(sysid: int) -> str:
-    return f"/vehicle/{sysid}/status"
-
-
-#: Codes of the map grid's ``state`` field: the planner's cell states, and covered.
-GRID_UNKNOWN = int(CellState.UNKNOWN)
-GRID_FREE = int(CellState.FREE)
-GRID_OBSTACLE = int(CellState.OBSTACLE)
-GRID_COVERED = 3
-#: RGBA of each grid code: unknown translucent grey, free (uncovered) amber,
-#: obstacle black, covered white, as in the coverage figure.
-GRID_RGBA = np.array(
-    [[150, 150, 150, 60], [255, 217, 51, 255], [0, 0, 0, 255], [255, 255, 255, 255]],
-    dtype=np.uint8,
-)
-#: Colours (r, g, b) of vehicle tracks, cycled by order of appearance.
-TRACK_RGB = (
-    (0.17, 0.63, 0.17),
-    (1.0, 0.5, 0.05),
-    (0.58, 0.4, 0.74),
-    (0.55, 0.34, 0.29),
-    (0.89, 0.47, 0.76),
-    (0.09, 0.75, 0.81),
-    (0.74, 0.74, 0.13),
-    (0.5, 0.5, 0.5),
-)
-LOG_LEVELS = {"debug": 1, "info": 2, "warning": 3, "warn": 3, "error": 4, "fatal": 5}
 
 
 def _unix_ns(unix_s: float | None) -> int:
     return time.time_ns() if unix_s is None else round(unix_s * 1e9)
-
-
-# ------------------------------------------------------------------ JSON schemas
-# Foxglove recognises its well-known schemas by name; the JSON schemas below
-# describe the subset of fields we write, with Foxglove's field names.
-
-
-def _obj(title: str | None = None, **props: Any) -> dict[str, Any]:
-    schema: dict[str, Any] = {"type": "object", "properties": props}
-    if title:
-        schema["title"] = title
-    return schema
-
-
-def _num() -> dict[str, str]:
-    return {"type": "number"}
-
-
-def _int() -> dict[str, str]:
-    return {"type": "integer"}
-
-
-def _str() -> dict[str, str]:
-    return {"type": "string"}
-
-
-def _arr(items: dict[str, Any]) -> dict[str, Any]:
-    return {"type": "array", "items": items}
-
-
-def _time() -> dict[str, Any]:
-    return _obj("time", sec=_int(), nsec=_int())
-
-
-def _vec3(title: str = "foxglove.Vector3") -> dict[str, Any]:
-    return _obj(title, x=_num(), y=_num(), z=_num())
-
-
-def _pose() -> dict[str, Any]:
-    quat = _obj("foxglove.Quaternion", x=_num(), y=_num(), z=_num(), w=_num())
-    return _obj("foxglove.Pose", position=_vec3(), orientation=quat)
-
-
-def _color() -> dict[str, Any]:
-    return _obj("foxglove.Color", r=_num(), g=_num(), b=_num(), a=_num())
-
-
-def _key_values() -> dict[str, Any]:
-    return _arr(_obj("foxglove.KeyValuePair", key=_str(), value=_str()))
-
-
-def _scene_update_schema() -> dict[str, Any]:
-    line = _obj(
-        "foxglove.LinePrimitive",
-        type=_int(),
-        pose=_pose(),
-        thickness=_num(),
-        scale_invariant={"type": "boolean"},
-        points=_arr(_vec3("foxglove.Point3")),
-        color=_color(),
-        colors=_arr(_color()),
-        indices=_arr(_int()),
-    )
-    sphere = _obj("foxglove.SpherePrimitive", pose=_pose(), size=_vec3(), color=_color())
-    entity = _obj(
-        "foxglove.SceneEntity",
-        timestamp=_time(),
-        frame_id=_str(),
-        id=_str(),
-        lifetime=_obj("duration", sec=_int(), nsec=_int()),
-        frame_locked={"type": "boolean"},
-        metadata=_key_values(),
-        arrows=_arr({"type": "object"}),
-        cubes=_arr({"type": "object"}),
-        spheres=_arr(sphere),
-        cylinders=_arr({"type": "object"}),
-        lines=_arr(line),
-        triangles=_arr({"type": "object"}),
-        texts=_arr({"type": "object"}),
-        models=_arr({"type": "object"}),
-    )
-    deletion = _obj("foxglove.SceneEntityDeletion", timestamp=_time(), type=_int(), id=_str())
-    return _obj("foxglove.SceneUpdate", deletions=_arr(deletion), entities=_arr(entity))
-
-
-def _grid_schema() -> dict[str, Any]:
-    field_schema = _obj("foxglove.PackedElementField", name=_str(), offset=_int(), type=_int())
-    return _obj(
-        "foxglove.Grid",
-        timestamp=_time(),
-        frame_id=_str(),
-        pose=_pose(),
-        column_count=_int(),
-        cell_size=_obj("foxglove.Vector2", x=_num(), y=_num()),
-        row_stride=_int(),
-        cell_stride=_int(),
-        fields=_arr(field_schema),
-        data={"type": "string", "contentEncoding": "base64"},
-    )
-
-
-SCHEMAS: dict[str, dict[str, Any]] = {
-    "foxglove.Grid": _grid_schema(),
-    "foxglove.LocationFix": _obj(
-        "foxglove.LocationFix",
-        timestamp=_time(),
-        frame_id=_str(),
-        latitude=_num(),
-        longitude=_num(),
-        altitude=_num(),
-        position_covariance=_arr(_num()),
-        position_covariance_type=_int(),
-    ),
-    "foxglove.PoseInFrame": _obj(
-        "foxglove.PoseInFrame", timestamp=_time(), frame_id=_str(), pose=_pose()
-    ),
-    "foxglove.FrameTransform": _obj(
-        "foxglove.FrameTransform",
-        timestamp=_time(),
-        parent_frame_id=_str(),
-        child_frame_id=_str(),
-        translation=_vec3(),
-        rotation=_obj("foxglove.Quaternion", x=_num(), y=_num(), z=_num(), w=_num()),
-    ),
-    "foxglove.SceneUpdate": _scene_update_schema(),
-    "foxglove.Log": _obj(
-        "foxglove.Log",
-        timestamp=_time(),
-        level=_int(),
-        message=_str(),
-        name=_str(),
-        file=_str(),
-        line=_int(),
-        # Ours, besides Foxglove's fields: the event's mission seconds.
-        t_s=_num(),
-    ),
-    BATTERY_SCHEMA: _obj(
-        BATTERY_SCHEMA,
-        t_s=_num(),
-        sysid=_int(),
-        battery_pct=_num(),
-        mode=_str(),
-        row=_int(),
-        col=_int(),
-        cell=_arr(_int()),
-        sensed=_str(),
-    ),
-    META_SCHEMA: _obj(
-        META_SCHEMA,
-        mission=_str(),
-        shape=_arr(_int()),
-        cell_size_m=_num(),
-        charger=_arr(_int()),
-        reserve_pct=_num(),
-        origin=_obj(None, lat_deg=_num(), lon_deg=_num(), alt_m=_num()),
-        started_unix_s=_num(),
-        started_unix_ns=_int(),
-        free_cells=_int(),
-    ),
-    STATUS_SCHEMA: _obj(
-        STATUS_SCHEMA,
-        t_s=_num(),
-        sysid=_int(),
-        kind=_str(),
-        activity=_str(),
-        phase=_str(),
-        task=_str(),
-        cell=_arr(_int()),
-        battery_pct=_num(),
-        energy_pct_per_m=_num(),
-        range_m=_num(),
-        home_m=_num(),
-        charges=_int(),
-        way=_arr(_arr(_int())),
-        link_up={"type": "boolean"},
-        heard_s_ago=_num(),
-        rejected_frames=_int(),
-    ),
-    PROGRESS_SCHEMA: _obj(
-        PROGRESS_SCHEMA,
-        t_s=_num(),
-        covered=_int(),
-        free=_int(),
-        pct=_num(),
-        state=_str(),
-        time_left_s=_num(),
-        speedup=_num(),
-    ),
-    RESULT_SCHEMA: {"type": "object", "title": RESULT_SCHEMA},
-}
-
-
-# ------------------------------------------------------------------ RunResult <-> JSON
-
-
-def _array_json(array: np.ndarray) -> dict[str, Any]:
-    return {"dtype": str(array.dtype), "data": array.tolist()}
-
-
-def _array_from(value: dict[str, Any]) -> np.ndarray:
-    return np.array(value["data"], dtype=value["dtype"])
-
-
-def _cell(value: Sequence[int]) -> Cell:
-    return (int(value[0]), int(value[1]))
-
-
-def result_to_json(result: RunResult) -> dict[str, Any]:
-    """Every field of a RunResult, JSON-ready; :func:`result_from_json` inverts it exactly."""
-    return {
-        "mission": result.mission,
-        "shape": list(result.shape),
-        "cell_size_m": result.cell_size_m,
-        "charger": list(result.charger),
-        "reserve_pct": result.reserve_pct,
-        "belief": _array_json(result.belief),
-        "covered": _array_json(result.covered),
-        "agents": [
-            {
-                "id": a.id,
-                "track": [list(c) for c in a.track],
-                "battery_pct": list(a.battery_pct),
-                "path_m": a.path_m,
-                "homing_m": a.homing_m,
-                "charges": a.charges,
-                "min_battery_pct": a.min_battery_pct,
-                "lost": a.lost,
-            }
-            for a in result.agents
-        ],
-        "btps": [
-            [list(b.cell), b.detected_by, b.detected_at, b.covered_by, b.covered_at]
-            for b in result.btps
-        ],
-        "covered_per_iteration": list(result.covered_per_iteration),
-        "iterations": result.iterations,
-        "free_cells": result.free_cells,
-        "covered_cells": result.covered_cells,
-        "out_of_range_cells": result.out_of_range_cells,
-        "safety_net_fires": result.safety_net_fires,
-        "wall_s": result.wall_s,
-        "planner_s": result.planner_s,
-        "extra": dict(result.extra),
-    }
-
-
-def result_from_json(data: dict[str, Any]) -> RunResult:
-    agents = tuple(
-        AgentTrace(
-            id=int(a["id"]),
-            track=tuple(_cell(c) for c in a["track"]),
-            battery_pct=tuple(float(b) for b in a["battery_pct"]),
-            path_m=float(a["path_m"]),
-            homing_m=float(a["homing_m"]),
-            charges=int(a["charges"]),
-            min_battery_pct=float(a["min_battery_pct"]),
-            lost=bool(a["lost"]),
-        )
-        for a in data["agents"]
-    )
-    btps = tuple(
-        BtpRecord(_cell(cell), int(by), int(at), cov_by, cov_at)
-        for cell, by, at, cov_by, cov_at in data["btps"]
-    )
-    return RunResult(
-        mission=str(data["mission"]),
-        shape=_cell(data["shape"]),
-        cell_size_m=float(data["cell_size_m"]),
-        charger=_cell(data["charger"]),
-        reserve_pct=float(data["reserve_pct"]),
-        belief=_array_from(data["belief"]),
-        covered=_array_from(data["covered"]),
-        agents=agents,
-        btps=btps,
-        covered_per_iteration=tuple(int(c) for c in data["covered_per_iteration"]),
-        iterations=int(data["iterations"]),
-        free_cells=int(data["free_cells"]),
-        covered_cells=int(data["covered_cells"]),
-        out_of_range_cells=int(data["out_of_range_cells"]),
-        safety_net_fires=int(data["safety_net_fires"]),
-        wall_s=float(data["wall_s"]),
-        planner_s=float(data["planner_s"]),
-        extra=dict(data.get("extra", {})),
-    )
-
-
-# ------------------------------------------------------------------ message builders
-
-
-def _stamp(ns: int) -> dict[str, int]:
-    return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
-
-
-IDENTITY = {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}
-
-
-def _move_heading(a: Cell, b: Cell) -> float | None:
-    """Compass heading of a move between neighbouring cells (rows grow southwards)."""
-    if a == b:
-        return None
-    return math.degrees(math.atan2(b[1] - a[1], a[0] - b[0])) % 360.0
-
-
-def _entity(ns: int, entity_id: str, **primitives: Any) -> dict[str, Any]:
-    entity: dict[str, Any] = {
-        "timestamp": _stamp(ns),
-        "frame_id": MAP_FRAME,
-        "id": entity_id,
-        "lifetime": {"sec": 0, "nsec": 0},
-        "frame_locked": False,
-        "metadata": primitives.pop("metadata", []),
-    }
-    for kind in ("arrows", "cubes", "spheres", "cylinders", "lines", "triangles", "texts"):
-        entity[kind] = primitives.pop(kind, [])
-    entity["models"] = []
-    return entity
-
-
-def sensed_code(readings: Mapping[Direction, CellState]) -> str:
-    """The 8 readings of an arrival as 8 digits (``CellState`` values) in ``Direction``
-    order, so that a restarted ground station knows what was sensed up to the end of
-    the log (``gcs run --resume``), not only up to the last map."""
-    return "".join(str(int(readings.get(d, CellState.UNKNOWN))) for d in Direction)
-
-
-def readings_from_code(code: str) -> dict[Direction, CellState]:
-    return {d: CellState(int(x)) for d, x in zip(Direction, code, strict=True)}
-
-
-def grid_codes(belief: np.ndarray, covered: np.ndarray) -> np.ndarray:
-    """The map's uint8 codes: belief states, with covered cells as ``GRID_COVERED``."""
-    codes = np.asarray(belief, dtype=np.uint8).copy()
-    codes[np.asarray(covered, dtype=bool)] = GRID_COVERED
-    return codes
-
-
-def codes_from_grid(message: dict[str, Any]) -> np.ndarray:
-    """Invert :func:`grid_message`'s data back to (rows north-first) uint8 codes."""
-    raw = np.frombuffer(base64.b64decode(message["data"]), dtype=np.uint8)
-    cols = int(message["column_count"])
-    cells = raw.reshape(-1, cols, int(message["cell_stride"]))
-    return np.flipud(cells[:, :, 0]).copy()
 
 
 class LogSink(Protocol):
@@ -709,7 +349,7 @@ class McapMissionLog:
             "foxglove.FrameTransform",
             0.0,
             {
-                "timestamp": _stamp(self._ns(0.0)),
+                "timestamp": stamp(self._ns(0.0)),
                 "parent_frame_id": "world",
                 "child_frame_id": MAP_FRAME,
                 "translation": {"x": 0.0, "y": 0.0, "z": 0.0},
@@ -736,9 +376,7 @@ class McapMissionLog:
         cell: Cell,
         battery_pct: float,
         mode: str,
-        lat_deg: float | None = None,
-        lon_deg: float | None = None,
-        heading_deg: float | None = None,
+        fix: GeoFix | None = None,
         readings: Mapping[Direction, CellState] | None = None,
     ) -> None:
         if self._closed:
@@ -752,13 +390,14 @@ class McapMissionLog:
         )
         self._write(f"/vehicle/{sysid}/battery", BATTERY_SCHEMA, t_s, state.encode())
         vehicle = self._vehicle(sysid)
+        lat_deg, lon_deg, heading_deg = fix or (None, None, None)
         if heading_deg is None and vehicle.last_cell is not None:
-            heading_deg = _move_heading(vehicle.last_cell, (row, col))
+            heading_deg = move_heading(vehicle.last_cell, (row, col))
         if heading_deg is not None:
             vehicle.heading_deg = heading_deg
-        fix = (row, col, lat_deg, lon_deg, vehicle.heading_deg)
-        if fix != vehicle.last_fix:
-            vehicle.last_fix = fix
+        shown = (row, col, lat_deg, lon_deg, vehicle.heading_deg)
+        if shown != vehicle.last_fix:
+            vehicle.last_fix = shown
             self._position(t_s, vehicle, (row, col), lat_deg, lon_deg)
         vehicle.last_cell = (row, col)
         if t_s >= self._next_tracks_t:
@@ -810,75 +449,24 @@ class McapMissionLog:
             return
         self._tracks_dirty = False
         width = 0.15 * self._mission.cell_size_m
-        entities = []
-        for v in self._vehicles.values():
-            if not v.track:
-                continue
-            line = {
-                "type": 0,  # LINE_STRIP
-                "pose": {"position": {"x": 0.0, "y": 0.0, "z": 0.05}, "orientation": IDENTITY},
-                "thickness": width,
-                "scale_invariant": False,
-                "points": [],
-                "color": {"r": v.colour[0], "g": v.colour[1], "b": v.colour[2], "a": 0.9},
-                "colors": [],
-                "indices": [],
-            }
-            metadata = [{"key": "sysid", "value": str(v.sysid)}]
-            entity = _entity(self._ns(t_s), f"track/{v.sysid}", lines=[line], metadata=metadata)
-            text = json.dumps(entity)
-            # The points are kept as JSON text: splice them in instead of encoding them again.
-            entities.append(text.replace('"points": []', f'"points":[{",".join(v.track)}]', 1))
+        ns = self._ns(t_s)
+        entities = [
+            track_entity(ns, v.sysid, v.colour, v.track, width)
+            for v in self._vehicles.values()
+            if v.track
+        ]
         update = f'{{"deletions":[],"entities":[{",".join(entities)}]}}'
         self._write(TRACKS_TOPIC, "foxglove.SceneUpdate", t_s, update.encode())
 
     def _emit_btps(self, t_s: float) -> None:
         cells, self._btps = self._btps or [], None
         self._next_btps_t = t_s + self._settings.scene_period_s
-        size = 0.5 * self._mission.cell_size_m
-        spheres = []
-        for cell in cells:
-            north, east = self._mission.geo.cell_centre_local(cell)
-            spheres.append(
-                {
-                    "pose": {
-                        "position": {"x": east, "y": north, "z": 0.1},
-                        "orientation": IDENTITY,
-                    },
-                    "size": {"x": size, "y": size, "z": size},
-                    "color": {"r": 0.9, "g": 0.1, "b": 0.1, "a": 0.9},
-                }
-            )
-        cells_json = json.dumps([list(c) for c in cells], separators=(",", ":"))
-        entity = _entity(
-            self._ns(t_s),
-            "btps",
-            spheres=spheres,
-            metadata=[{"key": "cells", "value": cells_json}],
-        )
+        mission = self._mission
+        entity = btps_entity(self._ns(t_s), cells, mission.geo, mission.cell_size_m)
         self._json(BTPS_TOPIC, "foxglove.SceneUpdate", t_s, {"deletions": [], "entities": [entity]})
 
     def coverage(self, t_s: float, belief: np.ndarray, covered: np.ndarray) -> None:
-        codes = grid_codes(belief, covered)
-        rows, cols = codes.shape
-        cells = np.concatenate([codes[:, :, None], GRID_RGBA[codes]], axis=2)
-        data = np.flipud(cells).tobytes()  # Foxglove's first row is the southern one
-        stride = cells.shape[2]
-        names = ("state", "red", "green", "blue", "alpha")
-        grid = {
-            "timestamp": _stamp(self._ns(t_s)),
-            "frame_id": MAP_FRAME,
-            "pose": {
-                "position": {"x": 0.0, "y": -rows * self._mission.cell_size_m, "z": 0.0},
-                "orientation": IDENTITY,
-            },
-            "column_count": cols,
-            "cell_size": {"x": self._mission.cell_size_m, "y": self._mission.cell_size_m},
-            "row_stride": cols * stride,
-            "cell_stride": stride,
-            "fields": [{"name": n, "offset": k, "type": 1} for k, n in enumerate(names)],
-            "data": base64.b64encode(data).decode("ascii"),
-        }
+        grid = grid_message(self._ns(t_s), belief, covered, self._mission.cell_size_m)
         self._json(MAP_TOPIC, "foxglove.Grid", t_s, grid)
 
     def btps(self, t_s: float, cells: Sequence[Cell]) -> None:
@@ -890,7 +478,7 @@ class McapMissionLog:
         """A ``foxglove.Log`` on ``/events``: ``level`` one of ``LOG_LEVELS``, ``name`` the
         source (``vehicle N`` or ``gcs``), ``t_s`` the mission seconds."""
         message = {
-            "timestamp": _stamp(self._ns(t_s)),
+            "timestamp": stamp(self._ns(t_s)),
             "level": LOG_LEVELS.get(level.lower(), 0),
             "message": text,
             "name": f"vehicle {sysid}" if sysid is not None else "gcs",

@@ -22,7 +22,8 @@ from mcap.records import Channel, Chunk, Footer, Message, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import MCAP0_MAGIC
 
-from gcs.log.mcap_log import (
+from gcs.log.result_json import result_from_json
+from gcs.log.topics import (
     BTPS_TOPIC,
     EVENTS_TOPIC,
     GRID_COVERED,
@@ -32,7 +33,6 @@ from gcs.log.mcap_log import (
     RESULT_TOPIC,
     codes_from_grid,
     readings_from_code,
-    result_from_json,
 )
 from gcs.outcome.result import AgentTrace, BtpRecord, RunResult
 from planner.coordinator import AgentMode, EventKind

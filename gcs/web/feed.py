@@ -21,7 +21,7 @@ import re
 from dataclasses import dataclass
 from enum import Enum
 
-from gcs.log.mcap_log import (
+from gcs.log.topics import (
     BTPS_TOPIC,
     EVENTS_TOPIC,
     MAP_TOPIC,

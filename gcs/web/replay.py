@@ -13,8 +13,8 @@ from pathlib import Path
 
 from mcap.records import Channel, Message, Schema
 
-from gcs.log.mcap_log import META_TOPIC
 from gcs.log.reader import LogError, mcap_records
+from gcs.log.topics import META_TOPIC
 from gcs.web.feed import kind_of, message, record
 
 
