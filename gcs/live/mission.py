@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import logging
 from collections.abc import Awaitable, Callable
 from typing import TypeVar
 
@@ -58,8 +57,6 @@ from vehicles.mission_protocol import MissionSettings
 from vehicles.modes import VehicleKind
 from vehicles.network import MavlinkNetwork
 from vehicles.parameters import ParameterSettings
-
-log = logging.getLogger(__name__)
 
 #: Message rates we ask every vehicle for (Hz of vehicle time); 0 stops a stream we never read.
 RATES_HZ: dict[int, float] = {
