@@ -78,3 +78,18 @@ def test_the_live_mission_builds_no_simulated_fleet() -> None:
         if line.startswith(tuple(f"{kind} {m}" for kind in ("from", "import") for m in sim))
     ]
     assert offenders == []
+
+
+def test_the_benches_drive_the_product_through_its_api() -> None:
+    """``gcs.bench`` runs missions through their API, never through a command's code
+    (its own options, ``gcs.options``, hold only argparse tables and their defaults)."""
+    cli = ("gcs.cli", "gcs.sitl_cli", "gcs.commands")
+    offenders = [
+        f"{path.relative_to(ROOT)}: {line}"
+        for path in sorted((ROOT / "gcs" / "bench").glob("*.py"))
+        for line in path.read_text(encoding="utf-8").splitlines()
+        if line.strip().startswith(tuple(f"{kind} {m}" for kind in ("from", "import") for m in cli))
+        or '"gcs.cli"' in line
+        or '"gcs.sitl_cli"' in line
+    ]
+    assert offenders == []
