@@ -1,6 +1,7 @@
 """The mission's fleet as mock ArduPilot-like vehicles (``sitl_mock``), for
 ``sitl-mock`` and ``gcs run --sim``: one vehicle configuration per vehicle of the
-mission, on the mirror side of its connection, and the faults a rehearsal injects.
+mission, on the mirror side of its connection, and the faults a rehearsal injects;
+``MockFleetRehearsal``: that fleet as the live mission is handed it.
 """
 
 from __future__ import annotations
@@ -15,9 +16,10 @@ from sitl_mock.drive import SKID_COAST_M_S2, DriveSettings, Steering
 from sitl_mock.endpoint import LinkSettings
 from sitl_mock.failsafe import FailsafeAction, GcsFailsafe
 from sitl_mock.faults import LinkCut, LinkFaults, VehicleFaults
-from sitl_mock.fleet import MockVehicleConfig
+from sitl_mock.fleet import MockFleet, MockVehicleConfig
 from sitl_mock.modes import VehicleKind
 from sitl_mock.vehicle import VehicleSettings
+from vehicles.clock import Clock
 from vehicles.keyfile import KeyFile
 
 TCP_PORT_STEP = 10
@@ -135,3 +137,27 @@ def sim_configs(
             dataclasses.replace(config, battery=battery, faults=VehicleFaults(link=link))
         )
     return configs
+
+
+class MockFleetRehearsal:
+    """The mission's mock fleet with its faults, built by the command and handed to the
+    live mission (``run_live(sim=...)``), which starts it on its own clock between the
+    links that listen and those that dial, and stops it at the end."""
+
+    def __init__(
+        self, mission: Mission, faults: SimFaults, keys: KeyFile | None = None, seed: int = 0
+    ) -> None:
+        self.configs = sim_configs(mission, faults, keys)
+        self.mission = mission
+        self.seed = seed
+        self._fleet: MockFleet | None = None
+
+    async def start(self, clock: Clock) -> None:
+        self._fleet = MockFleet(
+            self.configs, self.mission.map, self.mission.geo, clock, seed=self.seed
+        )
+        await self._fleet.start()
+
+    async def stop(self) -> None:
+        if self._fleet is not None:
+            await self._fleet.stop()

@@ -22,8 +22,8 @@ import signal
 import sys
 from collections.abc import Sequence
 
+from gcs.commands.keys import load_keys
 from gcs.errors import EXIT_BAD_INPUT, EXIT_OK, UsageError
-from gcs.keys import load_keys
 from gcs.mission import Mission, MissionError, load_mission
 from gcs.mock_fleet import FLEET_GCS_FAILSAFE, STARTUP_DELAY_S, TCP_PORT_STEP, mock_fleet_configs
 from sitl_mock.connection import ConnectionStringError, parse_mock_side

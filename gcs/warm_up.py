@@ -11,7 +11,7 @@ the cache filled it takes a fraction of a second.
 from __future__ import annotations
 
 from gcs.generated_missions import GENERATORS, MAP_SEED, case_mission
-from gcs.simulate import SimOptions, simulate
+from gcs.offline.simulate import SimOptions, simulate
 
 #: The run that calls every kernel: a maze of rooms this many cells a side, this many agents.
 WARM_UP_SIDE = 30

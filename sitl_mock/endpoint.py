@@ -74,6 +74,18 @@ class LinkSettings:
             raise ValueError(f"signing_key must be 32 bytes, got {len(self.signing_key)}")
 
 
+def _stream_intervals(vehicle: Vehicle, link: LinkSettings) -> dict[int, float]:
+    """The telemetry streams' periods at the start: the defaults, as the link's settings
+    change them, without range readings on a vehicle that senses none."""
+    intervals: dict[int, float] = dict(telemetry.DEFAULT_INTERVALS_S)
+    for message_id, interval in link.stream_intervals_s.items():
+        intervals[message_id] = interval
+    if not vehicle.settings.range_sensing:
+        intervals.pop(mavlink.MAVLINK_MSG_ID_DISTANCE_SENSOR, None)
+        intervals.pop(mavlink.MAVLINK_MSG_ID_OBSTACLE_DISTANCE, None)
+    return intervals
+
+
 @dataclass
 class _Channel:
     peer: Peer
@@ -104,12 +116,7 @@ class VehicleEndpoint:
             make_transport(self.endpoint, self) if own_transport else None
         )
         self._streams: dict[int, asyncio.Task[None]] = {}
-        self._intervals_s: dict[int, float] = dict(telemetry.DEFAULT_INTERVALS_S)
-        for message_id, interval in link.stream_intervals_s.items():
-            self._intervals_s[message_id] = interval
-        if not vehicle.settings.range_sensing:
-            self._intervals_s.pop(mavlink.MAVLINK_MSG_ID_DISTANCE_SENSOR, None)
-            self._intervals_s.pop(mavlink.MAVLINK_MSG_ID_OBSTACLE_DISTANCE, None)
+        self._intervals_s = _stream_intervals(vehicle, link)
         self._rng_to_gcs = random.Random(f"{seed}/{vehicle.id}/to_gcs")
         self._rng_from_gcs = random.Random(f"{seed}/{vehicle.id}/from_gcs")
         self._command_dice = CommandFaultDice(
@@ -123,18 +130,7 @@ class VehicleEndpoint:
             link.mission,
             MissionFaultTrigger(self.faults.mission),
         )
-        self._handlers: dict[str, Callable[[Peer, Any], None]] = {
-            "COMMAND_LONG": self._on_command,
-            "COMMAND_INT": self._on_command,
-            "SET_MODE": self._on_set_mode,
-            "SET_POSITION_TARGET_GLOBAL_INT": self._on_position_target,
-            "TIMESYNC": self._on_timesync,
-            "HEARTBEAT": self._on_heartbeat,
-            "PARAM_REQUEST_READ": self._on_parameters,
-            "PARAM_REQUEST_LIST": self._on_parameters,
-            "PARAM_SET": self._on_parameters,
-            **self.mission.handlers(),
-        }
+        self._handlers = self._message_handlers()
         self.silent = False
         #: Incoming messages refused for a missing or bad signature.
         self.rejected_signatures = 0
@@ -150,6 +146,21 @@ class VehicleEndpoint:
         self._signing_streams: StreamTimestamps = {}
         self._started = False
         vehicle.subscribe(self._on_vehicle_event)
+
+    def _message_handlers(self) -> dict[str, Callable[[Peer, Any], None]]:
+        """What answers each message the vehicle takes, by message type."""
+        return {
+            "COMMAND_LONG": self._on_command,
+            "COMMAND_INT": self._on_command,
+            "SET_MODE": self._on_set_mode,
+            "SET_POSITION_TARGET_GLOBAL_INT": self._on_position_target,
+            "TIMESYNC": self._on_timesync,
+            "HEARTBEAT": self._on_heartbeat,
+            "PARAM_REQUEST_READ": self._on_parameters,
+            "PARAM_REQUEST_LIST": self._on_parameters,
+            "PARAM_SET": self._on_parameters,
+            **self.mission.handlers(),
+        }
 
     # ------------------------------------------------------------------ lifecycle
 

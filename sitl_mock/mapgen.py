@@ -388,7 +388,33 @@ def branching(
     left = min(max(1, pad_col - trunk_width // 2), width - 1 - trunk_width)
     trunk = _Rect(pad_row - trunk_len, left, pad_row, left + trunk_width)
     free[trunk.r0 : trunk.r1, trunk.c0 : trunk.c1] = True
-    segments = [trunk]
+    shape = _Branches(min_width, max_width, min_len, max_len, wing_prob, wing_min, wing_max)
+    _place_branches(free, rng, [trunk], branches, shape)
+    return _finish(~free, connect_width=min_width)
+
+
+@dataclass(frozen=True)
+class _Branches:
+    """The sizes of ``branching``'s branches and of the wings at their ends."""
+
+    min_width: int
+    max_width: int
+    min_len: int
+    max_len: int
+    wing_prob: float
+    wing_min: int
+    wing_max: int
+
+
+def _place_branches(
+    free: np.ndarray,
+    rng: np.random.Generator,
+    segments: list[_Rect],
+    branches: int,
+    shape: _Branches,
+) -> None:
+    """Up to ``branches`` branches off random corridors of ``segments`` (each, with
+    ``wing_prob``, ending in a wing), carved into ``free``; fewer when no more fit."""
     placed = 0
     for _ in range(20 * branches):
         if placed == branches:
@@ -396,25 +422,25 @@ def branching(
         parent = segments[int(rng.integers(len(segments)))]
         sides = (Direction.E, Direction.W) if parent.vertical else (Direction.N, Direction.S)
         direction = sides[int(rng.integers(2))]
-        span = int(rng.integers(min_width, max_width + 1))
+        span = int(rng.integers(shape.min_width, shape.max_width + 1))
         lo, hi = parent.lateral(direction)
         if hi - lo < span:
             continue
         offset = lo + int(rng.integers(hi - lo - span + 1))
-        length = int(rng.integers(min_len, max_len + 1))
-        branch = _grow(free, parent, direction, offset, span, min_len, length)
+        length = int(rng.integers(shape.min_len, shape.max_len + 1))
+        branch = _grow(free, parent, direction, offset, span, shape.min_len, length)
         if branch is None:
             continue
         segments.append(branch)
         placed += 1
-        if rng.random() < wing_prob:
+        if rng.random() < shape.wing_prob:
+            wing_min, wing_max = shape.wing_min, shape.wing_max
             wing_span = int(rng.integers(max(wing_min, span), max(wing_max, span) + 1))
             wing_lo = offset - int(rng.integers(wing_span - span + 1))
             depth = int(rng.integers(wing_min, wing_max + 1))
             wing = _grow(free, branch, direction, wing_lo, wing_span, wing_min, depth)
             if wing is not None:
                 segments.append(wing)
-    return _finish(~free, connect_width=min_width)
 
 
 def _grow(

@@ -10,7 +10,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from gcs.mcap_log import McapMissionLog
+from gcs.log.mcap_log import LogSettings, LogSink, McapMissionLog
 from gcs.mission import (
     Mission,
     Origin,
@@ -20,8 +20,8 @@ from gcs.mission import (
     VehicleType,
     default_connection,
 )
+from gcs.outcome.result import RunResult
 from gcs.preflight import charger_distances
-from gcs.result import RunResult
 from planner.coordinator import EventKind, PlannerEvent
 from planner.grid import Cell, manhattan
 from sitl_mock.gridmap import GridMap
@@ -128,6 +128,18 @@ def energy_for_round_trips(grid: GridMap, trips: float, reserve_pct: float = 20.
     return (100.0 - reserve_pct) / (2 * far * trips) if far else 1.0
 
 
-def open_mission_log(path: Path, mission: Mission, **options: Any) -> McapMissionLog:
-    """A mission log of ``mission`` at ``path`` (``options``: the log's own settings)."""
-    return McapMissionLog.for_mission(mission, path, **options)
+def open_mission_log(
+    path: Path,
+    mission: Mission,
+    started_unix_s: float | None = None,
+    sinks: Sequence[LogSink] = (),
+    **settings: Any,
+) -> McapMissionLog:
+    """A mission log of ``mission`` at ``path`` (``settings``: the log's own, ``LogSettings``)."""
+    return McapMissionLog.for_mission(
+        mission,
+        path,
+        settings=LogSettings(**settings),
+        sinks=sinks,
+        started_unix_s=started_unix_s,
+    )

@@ -9,14 +9,8 @@ import pytest
 from rich.console import Console
 
 from gcs.bench import perf as bench_perf
-from gcs.bench.perf import (
-    goals,
-    goals_table,
-    live_map,
-    run_live_case,
-    web_pairs,
-    write_live_mission,
-)
+from gcs.bench.perf import goals, goals_table
+from gcs.bench.perf_live import live_map, run_live_case, web_pairs, write_live_mission
 from gcs.cli import main
 from gcs.mission import load_mission
 

@@ -25,12 +25,12 @@ from rich.console import Console
 
 from gcs.cli import main
 from gcs.live.display import LiveDisplay
-from gcs.live.mission import fence_vertices
 from gcs.live.pilot import Pilot
+from gcs.live.readiness import fence_vertices
 from gcs.live.shared import Level
-from gcs.log_reader import LogError, read_log
+from gcs.log.reader import LogError, read_log
 from gcs.mission import Mission
-from gcs.result import RunResult
+from gcs.outcome.result import RunResult
 from sitl_mock.drive import DriveSettings
 from sitl_mock.events import StatusText as MockStatusText
 from sitl_mock.fence import Fence as MockFence

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gcs.simulate import simulate
+from gcs.offline.simulate import simulate
 from planner import bounded_search, fast_search, landmarks
 from planner.belief import UNREACHED, MapBelief
 from planner.fast_search import HorizonMemo, TargetSearch, Team, WayMemo, _uncontested_horizon

@@ -19,8 +19,9 @@ from mcap.reader import make_reader
 from websockets.asyncio.client import ClientConnection, connect
 from websockets.typing import Subprotocol
 
-from gcs.foxglove_live import LiveView
-from gcs.mcap_log import SCHEMAS
+from gcs.log.foxglove_live import LiveView
+from gcs.log.mission_log import GeoFix
+from gcs.log.topics import SCHEMAS
 from planner.grid import CellState
 from tests.checks import open_mission_log
 from tests.test_live_mission import SMALL, write_mission
@@ -68,7 +69,7 @@ async def test_the_logs_topics_are_served_live_with_their_schemas(tmp_path: Path
             belief = np.full(shape, int(CellState.UNKNOWN), dtype=np.int8)
             belief[0, 0] = int(CellState.FREE)
             log.raw(1, False, 0.5, b"\xfd\x00")
-            log.agent_state(1.0, 1, mission.charger, 90.0, "exploring", 47.0, 8.0)
+            log.agent_state(1.0, 1, mission.charger, 90.0, "exploring", GeoFix(47.0, 8.0))
             log.coverage(1.0, belief, np.zeros(shape, dtype=bool))
             log.event(1.0, "first", "info", 1)
             channels = await advertised(ws, {"/map", "/events", "/vehicle/1/fix"})

@@ -9,7 +9,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from gcs.live.mission import RATES_HZ, LiveOptions, telemetry_rates
+from gcs.live.mission import RATES_HZ, telemetry_rates
+from gcs.live.run import LiveOptions
 from gcs.mission import load_mission
 from vehicles.link_budget import (
     MIN_RATE_HZ,

@@ -34,7 +34,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from rich.console import Console
 
 from gcs.live.display import LiveDisplay
-from gcs.live.mission import LiveRun
+from gcs.live.run import LiveRun
 from gcs.mission import load_mission
 from sitl_mock.endpoint import LinkSettings as MockLinkSettings
 from sitl_mock.endpoint import VehicleEndpoint

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from gcs.live.resume import load_resume_point
-from gcs.log_reader import read_log
+from gcs.log.reader import read_log
 from gcs.mission import load_mission
 from planner.belief import with_unknown_side
 from tests.processes import ctrl_c, gcs_process

@@ -21,7 +21,7 @@ from mcap.reader import make_reader
 from scipy import ndimage
 
 from gcs.cli import main
-from gcs.log_reader import read_log
+from gcs.log.reader import read_log
 from gcs.mission import load_mission
 from gcs.mock_fleet import mock_fleet_configs
 from planner.grid import CellState

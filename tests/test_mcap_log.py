@@ -15,13 +15,13 @@ from mcap.writer import Writer
 
 from gcs.cli import main
 from gcs.commands.plan import LOG_NAME
-from gcs.figures import BATTERY_PNG, COVERAGE_PNG, EXPLORED_PNG, PATH_LENGTH_PNG
-from gcs.log_reader import LogError, mission_s, read_contents, read_log, reconstruct
-from gcs.mcap_log import SCHEMAS, codes_from_grid, grid_codes
+from gcs.log.reader import LogError, mission_s, read_contents, read_log, reconstruct
+from gcs.log.topics import SCHEMAS, codes_from_grid, grid_codes
 from gcs.mission import Mission
-from gcs.report import report_dict
-from gcs.result import RunResult
-from gcs.simulate import simulate
+from gcs.offline.simulate import simulate
+from gcs.outcome.figures import BATTERY_PNG, COVERAGE_PNG, EXPLORED_PNG, PATH_LENGTH_PNG
+from gcs.outcome.report import report_dict
+from gcs.outcome.result import RunResult
 from sitl_mock import mapgen
 from sitl_mock.maps import to_ascii
 from tests.checks import make_mission, open_mission_log

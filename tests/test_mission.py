@@ -23,8 +23,9 @@ from gcs.mission import (
     default_connection,
     load_mission,
 )
+from gcs.offline.simulate import SimOptions, simulate
+from gcs.planning import planner_settings
 from gcs.preflight import charger_distances
-from gcs.simulate import SimOptions, planner_settings, simulate
 from planner.settings import PlannerSettings
 from sitl_mock import mapgen
 from sitl_mock.gridmap import GridMap

@@ -9,7 +9,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from gcs.generated_missions import case_mission
-from gcs.simulate import SimOptions, planner_settings, simulate
+from gcs.offline.simulate import SimOptions, simulate
+from gcs.planning import planner_settings
 from planner.coordinator import _GIVEN_WAY_AFTER, ActionKind, AgentMode, Coordinator, PlannerEvent
 from planner.grid import Cell, CellState
 from planner.settings import AgentSpec, PlannerSettings

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from gcs.mission import load_mission
-from gcs.simulate import SimOptions, simulate
+from gcs.offline.simulate import SimOptions, simulate
 from sitl_mock import mapgen
 from tests.checks import energy_for_round_trips, make_mission
 

@@ -8,7 +8,8 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from gcs.simulate import SimOptions, planner_settings, simulate
+from gcs.offline.simulate import SimOptions, simulate
+from gcs.planning import planner_settings
 from planner.coordinator import PlannerEvent
 from planner.grid import NEIGHBOURS
 from planner.settings import BmRule, PathPlannerKind, TargetPolicy

@@ -17,7 +17,9 @@ from matplotlib.figure import Figure
 from PIL import Image
 from rich.console import Console
 
-from gcs.figures import (
+from gcs.log.reader import LogContents, VehicleState, read_contents, read_log
+from gcs.offline.simulate import simulate
+from gcs.outcome.figures import (
     MISSION_LOG,
     PREDICTED_TIME_LABEL,
     STEP_LABEL,
@@ -29,10 +31,8 @@ from gcs.figures import (
     timeline,
     write_figures,
 )
-from gcs.log_reader import LogContents, VehicleState, read_contents, read_log
-from gcs.report import print_summary, report_dict, summary_rows, write_report
-from gcs.result import AgentTrace, BtpRecord, RunResult
-from gcs.simulate import simulate
+from gcs.outcome.report import print_summary, report_dict, summary_rows, write_report
+from gcs.outcome.result import AgentTrace, BtpRecord, RunResult
 from planner.grid import Cell, CellState
 from sitl_mock import mapgen
 from tests.checks import make_mission, open_mission_log

@@ -20,7 +20,7 @@ import pytest
 
 from gcs.bench.faults import log_loss_s, stop
 from gcs.live.resume import ResumeError, ResumePoint, load_resume_point, resumed_text
-from gcs.log_reader import read_contents
+from gcs.log.reader import read_contents
 from gcs.mission import load_mission
 from planner.coordinator import ActionKind, Coordinator
 from planner.grid import Cell

@@ -8,7 +8,7 @@ from itertools import pairwise
 from hypothesis import given
 from hypothesis import strategies as st
 
-from gcs.simulate import SimOptions, simulate
+from gcs.offline.simulate import SimOptions, simulate
 from sitl_mock.gridmap import GridMap
 from sitl_mock.maps import parse_ascii
 from tests.checks import check_run, make_mission

@@ -10,9 +10,9 @@ from typing import Any
 
 import pytest
 
-from gcs.log_reader import LogError
-from gcs.mcap_log import LogSink
-from gcs.mission_log import MissionProgress, VehicleStatus
+from gcs.log.mcap_log import LogSink
+from gcs.log.mission_log import MissionProgress, VehicleStatus
+from gcs.log.reader import LogError
 from gcs.web.feed import Cursor, Kind, LiveFeed, kind_of
 from gcs.web.replay import load_replay
 from tests.checks import open_mission_log

@@ -11,12 +11,9 @@ import dataclasses
 import enum
 import json
 import platform
-import signal
-import subprocess
-import sys
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -25,13 +22,14 @@ from rich.console import Console
 from rich.table import Table
 
 from gcs.bench.common import write_json
+from gcs.bench.fault_runs import LOG_NAME, StationRun, end, fly_station, start_fleet, start_station
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
-from gcs.log_reader import LogError, read_contents, read_log
+from gcs.log.reader import LogError, read_contents, read_log
 from gcs.mission import MissionError, load_mission
+from gcs.mock_fleet import SimFaults
 from gcs.options.bench import LONG_CUT_S, SHORT_CUT_S, STRIKE_S
-from gcs.options.run import LOST_AFTER_S
-from gcs.report import report_dict
+from gcs.outcome.report import report_dict
 from vehicles.endpoints import free_loopback_udp_ports
 
 #: Each sudden battery sag of the battery row (percent).
@@ -43,8 +41,8 @@ KILL_AFTER_S = 6.0
 @dataclass(frozen=True)
 class FaultCase:
     name: str
-    #: Extra ``gcs run`` options that inject the fault.
-    args: tuple[str, ...] = ()
+    #: What the mock fleet is made to suffer.
+    faults: SimFaults = field(default_factory=SimFaults)
     #: Vehicles this fault must cost (it makes losing them the right outcome).
     expect_lost: int = 0
     #: Percent of charge the fault takes at once (a sag): it may eat into the reserve
@@ -55,30 +53,23 @@ class FaultCase:
 
 def fault_cases(victim: int, strike_s: float = STRIKE_S) -> list[FaultCase]:
     """The campaign; ``victim`` is the vehicle that cut and death faults hit at ``strike_s``."""
-    at = f"{strike_s:g}"
+    at = strike_s
     return [
         FaultCase("no fault"),
-        FaultCase("10 % packet loss", ("--sim-loss", "0.1")),
-        FaultCase("20 % packet loss", ("--sim-loss", "0.2")),
-        FaultCase("40 % packet loss", ("--sim-loss", "0.4")),
-        FaultCase("latency 0.2 s + jitter 0.3 s", ("--sim-latency", "0.2", "--sim-jitter", "0.3")),
-        FaultCase(f"link cut {SHORT_CUT_S:g} s", ("--sim-cut", f"{victim}:{at}:{SHORT_CUT_S:g}")),
+        FaultCase("10 % packet loss", SimFaults(loss=0.1)),
+        FaultCase("20 % packet loss", SimFaults(loss=0.2)),
+        FaultCase("40 % packet loss", SimFaults(loss=0.4)),
+        FaultCase("latency 0.2 s + jitter 0.3 s", SimFaults(latency_s=0.2, jitter_s=0.3)),
+        FaultCase(f"link cut {SHORT_CUT_S:g} s", SimFaults(cuts=((victim, at, SHORT_CUT_S),))),
         FaultCase(
             f"link cut {LONG_CUT_S:g} s (> lost timeout)",
-            ("--sim-cut", f"{victim}:{at}:{LONG_CUT_S:g}"),
+            SimFaults(cuts=((victim, at, LONG_CUT_S),)),
             expect_lost=1,
         ),
-        FaultCase("vehicle dies", ("--sim-die", f"{victim}:{at}"), expect_lost=1),
+        FaultCase("vehicle dies", SimFaults(deaths=((victim, at),)), expect_lost=1),
         FaultCase(
             f"battery noise +-30 % and sags of {SAG_PCT:g} %",
-            (
-                "--sim-battery-noise",
-                "0.3",
-                "--sim-sag",
-                f"80:{SAG_PCT:g}",
-                "--sim-sag",
-                f"200:{SAG_PCT:g}",
-            ),
+            SimFaults(battery_noise=0.3, sags=((80.0, SAG_PCT), (200.0, SAG_PCT))),
             sag_pct=SAG_PCT,
         ),
         FaultCase("GCS killed (SIGKILL), resumed", kill=True),
@@ -86,20 +77,6 @@ def fault_cases(victim: int, strike_s: float = STRIKE_S) -> list[FaultCase]:
 
 
 # -- one row -----------------------------------------------------------------------------
-
-
-def _gcs(*args: str) -> list[str]:
-    return [sys.executable, "-m", "gcs.cli", *args]
-
-
-def _run(argv: list[str], limit_s: float) -> tuple[int | None, str]:
-    """Exit status (None when over the limit) and the last line of stderr."""
-    try:
-        done = subprocess.run(argv, capture_output=True, text=True, timeout=limit_s, check=False)
-    except subprocess.TimeoutExpired:
-        return None, f"over {limit_s:g} s"
-    lines = done.stderr.strip().splitlines()
-    return done.returncode, lines[-1] if lines else ""
 
 
 def _outcome(out: Path, row: dict[str, Any]) -> dict[str, Any]:
@@ -113,7 +90,7 @@ def _outcome(out: Path, row: dict[str, Any]) -> dict[str, Any]:
     log = row.get("log")  # the killed row says what the first log lost
     if log is None:
         try:
-            logged = json.loads(json.dumps(report_dict(read_log(out / "mission.mcap"))))
+            logged = json.loads(json.dumps(report_dict(read_log(out / LOG_NAME))))
             log = "complete" if logged == report else "differs from the report"
         except LogError as exc:
             log = f"unreadable ({exc})"
@@ -159,14 +136,6 @@ def _plain(value: object) -> object:
 def run_case(
     case: FaultCase, mission: Path, args: argparse.Namespace, folder: Path
 ) -> dict[str, Any]:
-    common: tuple[str, ...] = (
-        "--quiet",
-        "--seed",
-        str(args.seed),
-        "--speedup",
-        f"{args.speedup:g}",
-    )
-    common += ("--lost-after", f"{LOST_AFTER_S:g}")
     row: dict[str, Any] = {
         "fault": case.name,
         "expect_lost": case.expect_lost,
@@ -176,70 +145,46 @@ def run_case(
     out = folder / "out"
     t0 = time.perf_counter()
     if case.kill:
-        row = _killed_and_resumed(mission, args, folder, common, row)
+        row = _killed_and_resumed(mission, args, folder, row)
     else:
-        code, last = _run(
-            _gcs("run", str(mission), "--sim", *common, "--out", str(out), *case.args),
-            args.case_limit,
-        )
-        row["exit"] = code
-        if code is None or code > 1:
-            row["error"] = last or f"exit {code}"
+        run = StationRun(mission, out, args.seed, args.speedup, case.faults)
+        row = _flown(run, args.case_limit, row)
     row["wall_s"] = round(time.perf_counter() - t0, 1)
     return _outcome(out, row)
 
 
+def _flown(run: StationRun, limit_s: float, row: dict[str, Any]) -> dict[str, Any]:
+    code, last = fly_station(run, limit_s)
+    row["exit"] = code
+    if code is None or code > EXIT_FAILED:
+        row["error"] = last or f"exit {code}"
+    return row
+
+
 def _killed_and_resumed(
-    mission: Path,
-    args: argparse.Namespace,
-    folder: Path,
-    common: tuple[str, ...],
-    row: dict[str, Any],
+    mission: Path, args: argparse.Namespace, folder: Path, row: dict[str, Any]
 ) -> dict[str, Any]:
+    """The fleet in a process of its own; a first station killed (SIGKILL) after
+    ``KILL_AFTER_S``; a second one resumed from the first one's log."""
     first, out = folder / "first", folder / "out"
-    speed = ("--speedup", f"{args.speedup:g}")
-    fleet = subprocess.Popen(
-        [sys.executable, "-m", "gcs.sitl_cli", str(mission), *speed, "--gcs-failsafe", "hold"],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    fleet = start_fleet(mission, args.speedup)
     try:
-        gcs = subprocess.Popen(
-            _gcs("run", str(mission), *common, "--out", str(first)),
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-        )
-        try:
-            gcs.wait(timeout=KILL_AFTER_S)
-            return {**row, "error": f"the first ground station ended early (exit {gcs.returncode})"}
-        except subprocess.TimeoutExpired:
-            killed_at = time.time()
-            gcs.send_signal(signal.SIGKILL)
-            gcs.wait(timeout=30)
-        row["log"] = _log_loss(first / "mission.mcap", killed_at, args.speedup)
-        code, last = _run(
-            _gcs("run", str(mission), *common, "--resume", str(first / "mission.mcap"),
-                 "--out", str(out)),
-            args.case_limit,
-        )  # fmt: skip
-        row["exit"] = code
-        if code is None or code > 1:
-            row["error"] = last or f"exit {code}"
-        return row
+        station, answer = start_station(StationRun(mission, first, args.seed, args.speedup, None))
+        answer.close()
+        station.join(KILL_AFTER_S)
+        if not station.is_alive():
+            return {
+                **row,
+                "error": f"the first ground station ended early (exit {station.exitcode})",
+            }
+        killed_at = time.time()
+        station.kill()
+        station.join(30)
+        row["log"] = _log_loss(first / LOG_NAME, killed_at, args.speedup)
+        run = StationRun(mission, out, args.seed, args.speedup, None, resume=first / LOG_NAME)
+        return _flown(run, args.case_limit, row)
     finally:
-        stop(fleet)
-
-
-def stop(proc: subprocess.Popen[Any]) -> None:
-    """Terminate a child process, killing it if it does not end within 10 s."""
-    if proc.poll() is None:
-        proc.terminate()
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(timeout=10)
+        end(fleet)
 
 
 def log_loss_s(log: Path, killed_at: float, speedup: float) -> float | None:

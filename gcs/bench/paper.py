@@ -21,8 +21,9 @@ from gcs.bench.common import write_json
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.mission import Mission, MissionError, load_mission
-from gcs.result import RunResult
-from gcs.simulate import SimOptions, planner_settings, simulate
+from gcs.offline.simulate import SimOptions, simulate
+from gcs.outcome.result import RunResult
+from gcs.planning import planner_settings
 from planner.settings import BmRule, PlannerSettings, TargetPolicy
 
 #: The paper's Table 1 (scenario 1, 2068 m2): agents -> (charges per agent, s per step, iterations).
@@ -91,102 +92,129 @@ def run_paper(args: argparse.Namespace) -> int:
     scenario = _load(args.missions / "scenario1.yaml")
     bob = _load(args.missions / "bob30.yaml")
     figures: dict[str, object] = {"machine": platform.processor() or platform.machine()}
-    ok = True
+    table1, rows1, ok1 = _table1(scenario, args.agents)
+    console.print(table1)
+    figures["table1"] = rows1
+    table2, rows2, ok2, bob_free = _table2(bob)
+    console.print(table2)
+    console.print(
+        f"* the paper's map is not published; its ratios use our map's {bob_free} free cells."
+    )
+    figures["table2"] = rows2
+    ok = ok1 and ok2
+    write_json(args.json, figures, console)
+    return EXIT_OK if ok else EXIT_FAILED
 
+
+TABLE1_COLUMNS = (
+    "agents",
+    "strategy",
+    "charges/agent",
+    "paper",
+    "iterations",
+    "paper",
+    "iter x agents / free",
+    "paper",
+    "path / (free-1)",
+    "makespan ratio",
+    "planner s",
+    "ms / step",
+    "paper s / step",
+    "x faster / step",
+    "us / agent-step",
+    "complete",
+    "lost",
+)
+
+
+def _table1(scenario: Mission, agents: list[int]) -> tuple[Table, list[dict[str, object]], bool]:
+    """Table 1: scenario 1 with each number of agents and strategy, beside the paper's
+    figures; its rows for ``--json``, and whether every run completed."""
     energy = scenario.fleet[0].energy_per_m_pct if scenario.fleet else 0.0
-    table1 = Table(
+    table = Table(
         title=(
             f"Table 1: {scenario.name}, {scenario.map.reachable().sum()} free cells "
             f"(paper {PAPER_SCENARIO1_FREE} m2), energy {energy} %/m, reserve "
             f"{scenario.planner.reserve_pct:g} %"
         )
     )
-    for column in (
-        "agents",
-        "strategy",
-        "charges/agent",
-        "paper",
-        "iterations",
-        "paper",
-        "iter x agents / free",
-        "paper",
-        "path / (free-1)",
-        "makespan ratio",
-        "planner s",
-        "ms / step",
-        "paper s / step",
-        "x faster / step",
-        "us / agent-step",
-        "complete",
-        "lost",
-    ):
-        table1.add_column(column, justify="right")
-    rows1 = []
-    for n in args.agents:
+    for column in TABLE1_COLUMNS:
+        table.add_column(column, justify="right")
+    rows = []
+    ok = True
+    for n in agents:
         mission = scenario.with_agents(n)
         for strategy in STRATEGIES:
             result = simulate(mission, SimOptions(settings=_settings(mission, strategy)))
             ok &= result.complete
-            norm = normalised(result)
-            charges = sum(a.charges for a in result.agents) / n
-            paper = PAPER_TABLE1.get(n)
-            ms_step = 1e3 * result.planner_s / max(1, int(result.extra.get("total_iterations", 1)))
-            us_agent_step = (
-                1e6 * result.planner_s / max(1, int(result.extra.get("total_iterations", 1)) * n)
-            )
-            paper_iter_ratio = paper[2] * n / PAPER_SCENARIO1_FREE if paper else None
-            table1.add_row(
-                str(n),
-                strategy.name,
-                f"{charges:.1f}",
-                str(paper[0]) if paper else "-",
-                str(result.iterations),
-                str(paper[2]) if paper else "-",
-                f"{norm['iteration_ratio']:.3f}",
-                f"{paper_iter_ratio:.3f}" if paper_iter_ratio else "-",
-                f"{norm['path_ratio']:.3f}",
-                f"{norm['makespan_ratio']:.3f}",
-                f"{result.planner_s:.3f}",
-                f"{ms_step:.3f}",
-                f"{paper[1]:.2f}" if paper else "-",
-                f"{1e3 * paper[1] / ms_step:.0f}" if paper and ms_step > 0 else "-",
-                f"{us_agent_step:.1f}",
-                "yes" if result.complete else "[red]NO[/]",
-                str(result.lost_agents),
-            )
-            rows1.append(
-                {
-                    "agents": n,
-                    "strategy": strategy.name,
-                    "charges_per_agent": charges,
-                    "iterations": result.iterations,
-                    "planner_s": result.planner_s,
-                    "us_per_agent_step": us_agent_step,
-                    "complete": result.complete,
-                    "lost": result.lost_agents,
-                    "btps_detected": result.extra.get("btps_detected"),
-                    "safety_net_fires": result.safety_net_fires,
-                    **norm,
-                }
-            )
-    console.print(table1)
-    figures["table1"] = rows1
+            rows.append(_table1_row(table, n, strategy, result))
+    return table, rows, ok
 
-    table2 = Table(title=f"Table 2: {bob.name}, 4 agents, no battery limit")
-    for column in (
-        "method",
-        "agent paths (m)",
-        "total (m)",
-        "path / (free-1)",
-        "longest/shortest",
-        "complete",
-        "BTPs",
-        "safety net",
-    ):
-        table2.add_column(column, justify="right")
+
+def _table1_row(table: Table, n: int, strategy: Strategy, result: RunResult) -> dict[str, object]:
+    """One run of Table 1: its row added to ``table``, and returned for ``--json``."""
+    norm = normalised(result)
+    charges = sum(a.charges for a in result.agents) / n
+    paper = PAPER_TABLE1.get(n)
+    steps = int(result.extra.get("total_iterations", 1))
+    ms_step = 1e3 * result.planner_s / max(1, steps)
+    us_agent_step = 1e6 * result.planner_s / max(1, steps * n)
+    paper_iter_ratio = paper[2] * n / PAPER_SCENARIO1_FREE if paper else None
+    table.add_row(
+        str(n),
+        strategy.name,
+        f"{charges:.1f}",
+        str(paper[0]) if paper else "-",
+        str(result.iterations),
+        str(paper[2]) if paper else "-",
+        f"{norm['iteration_ratio']:.3f}",
+        f"{paper_iter_ratio:.3f}" if paper_iter_ratio else "-",
+        f"{norm['path_ratio']:.3f}",
+        f"{norm['makespan_ratio']:.3f}",
+        f"{result.planner_s:.3f}",
+        f"{ms_step:.3f}",
+        f"{paper[1]:.2f}" if paper else "-",
+        f"{1e3 * paper[1] / ms_step:.0f}" if paper and ms_step > 0 else "-",
+        f"{us_agent_step:.1f}",
+        "yes" if result.complete else "[red]NO[/]",
+        str(result.lost_agents),
+    )
+    return {
+        "agents": n,
+        "strategy": strategy.name,
+        "charges_per_agent": charges,
+        "iterations": result.iterations,
+        "planner_s": result.planner_s,
+        "us_per_agent_step": us_agent_step,
+        "complete": result.complete,
+        "lost": result.lost_agents,
+        "btps_detected": result.extra.get("btps_detected"),
+        "safety_net_fires": result.safety_net_fires,
+        **norm,
+    }
+
+
+TABLE2_COLUMNS = (
+    "method",
+    "agent paths (m)",
+    "total (m)",
+    "path / (free-1)",
+    "longest/shortest",
+    "complete",
+    "BTPs",
+    "safety net",
+)
+
+
+def _table2(bob: Mission) -> tuple[Table, list[dict[str, object]], bool, int]:
+    """Table 2: the 30x30 map with 4 agents and no battery limit, each strategy beside
+    the paper's methods; its rows, whether every run completed, and the free cells."""
+    table = Table(title=f"Table 2: {bob.name}, 4 agents, no battery limit")
+    for column in TABLE2_COLUMNS:
+        table.add_column(column, justify="right")
     bob_free = int(bob.map.reachable().sum())
     for method, (paper_paths, complete) in PAPER_TABLE2.items():
-        table2.add_row(
+        table.add_row(
             f"{method} (paper's figures)",
             " / ".join(map(str, paper_paths)),
             str(sum(paper_paths)),
@@ -196,13 +224,14 @@ def run_paper(args: argparse.Namespace) -> int:
             "-",
             "-",
         )
-    rows2 = []
+    rows: list[dict[str, object]] = []
+    ok = True
     mission = bob.with_agents(4)
     for strategy in STRATEGIES:
         result = simulate(mission, SimOptions(settings=_settings(mission, strategy)))
         ok &= result.complete
         paths = [a.path_m for a in result.agents]
-        table2.add_row(
+        table.add_row(
             f"{strategy.name} (ours)",
             " / ".join(f"{p:.0f}" for p in paths),
             f"{result.total_path_m:.0f}",
@@ -212,7 +241,7 @@ def run_paper(args: argparse.Namespace) -> int:
             str(result.extra.get("btps_detected")),
             str(result.safety_net_fires),
         )
-        rows2.append(
+        rows.append(
             {
                 "strategy": strategy.name,
                 "paths_m": paths,
@@ -222,10 +251,4 @@ def run_paper(args: argparse.Namespace) -> int:
                 **normalised(result),
             }
         )
-    console.print(table2)
-    console.print(
-        f"* the paper's map is not published; its ratios use our map's {bob_free} free cells."
-    )
-    figures["table2"] = rows2
-    write_json(args.json, figures, console)
-    return EXIT_OK if ok else EXIT_FAILED
+    return table, rows, ok, bob_free

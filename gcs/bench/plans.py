@@ -30,7 +30,8 @@ from gcs.bench.common import (
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
 from gcs.generated_missions import MapMaker, case_mission
-from gcs.simulate import SimOptions, planner_settings, simulate
+from gcs.offline.simulate import SimOptions, simulate
+from gcs.planning import planner_settings
 from sitl_mock import mapgen
 
 GENERATORS: dict[str, MapMaker] = {

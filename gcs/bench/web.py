@@ -19,7 +19,7 @@ from multiprocessing.connection import Connection
 
 import aiohttp
 
-from gcs.mcap_log import McapMissionLog
+from gcs.log.mcap_log import McapMissionLog
 from gcs.mission import Mission
 from gcs.web.feed import LiveFeed
 from gcs.web.server import PageConfig, WebView

@@ -15,8 +15,8 @@ import time
 
 from rich.console import Console
 
+from gcs.commands.keys import connection_signing, load_keys
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
-from gcs.keys import connection_signing, load_keys
 from vehicles.endpoints import Endpoint, parse_endpoint
 from vehicles.errors import EndpointError, LinkError
 from vehicles.link import VehicleLink

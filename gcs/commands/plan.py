@@ -13,14 +13,15 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
-from gcs.figures import write_figures
-from gcs.mcap_log import LogSink, McapMissionLog
+from gcs.log.mcap_log import LogSink, McapMissionLog
+from gcs.log.mission_log import MissionLog
 from gcs.mission import Mission, MissionError, load_mission
-from gcs.mission_log import MissionLog
+from gcs.offline.simulate import SimOptions, simulate
+from gcs.outcome.figures import write_figures
+from gcs.outcome.report import print_summary, write_report
+from gcs.outcome.result import RunResult
+from gcs.planning import planner_settings
 from gcs.preflight import check_range
-from gcs.report import print_summary, write_report
-from gcs.result import RunResult
-from gcs.simulate import SimOptions, planner_settings, simulate
 from planner.settings import BmRule, TargetPolicy
 
 #: The mission log's file name in ``--out``.

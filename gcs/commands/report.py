@@ -13,9 +13,9 @@ from rich.console import Console
 from gcs.commands.web_page import start_web, wants_web, web_view
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
-from gcs.figures import write_figures
-from gcs.log_reader import LogError, read_contents, result_of
-from gcs.report import print_summary, write_report
+from gcs.log.reader import LogError, read_contents, result_of
+from gcs.outcome.figures import write_figures
+from gcs.outcome.report import print_summary, write_report
 from gcs.web.replay import load_replay
 from gcs.web.server import WebView
 

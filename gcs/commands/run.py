@@ -18,25 +18,27 @@ import sys
 
 from rich.console import Console
 
+from gcs.commands.keys import load_keys
 from gcs.commands.plan import LOG_NAME, load, open_log, save_outputs
 from gcs.commands.web_page import start_web, wants_web, web_view
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
-from gcs.foxglove_live import LiveView, LiveViewError
-from gcs.keys import load_keys
 from gcs.live.agent import AgentSettings
 from gcs.live.display import LiveDisplay
-from gcs.live.mission import LiveOptions, MissionRefused, run_live
-from gcs.live.resume import ResumeError, load_resume_point
+from gcs.live.mission import run_live
+from gcs.live.resume import ResumeError, ResumePoint, load_resume_point
+from gcs.live.run import LiveOptions, MissionRefused, SimulatedFleet
 from gcs.live.shared import Level
-from gcs.mcap_log import SCHEMAS, LogSink, McapMissionLog
+from gcs.log.foxglove_live import LiveView, LiveViewError
+from gcs.log.mcap_log import LogSink, McapMissionLog
+from gcs.log.mission_log import MissionLog, NullLog
+from gcs.log.topics import SCHEMAS
 from gcs.mission import Mission, on_one_link, with_connections
-from gcs.mission_log import MissionLog, NullLog
-from gcs.mock_fleet import SimFaults
+from gcs.mock_fleet import MockFleetRehearsal, SimFaults
 from gcs.options.run import SIM_SPEEDUP
+from gcs.outcome.report import print_summary
+from gcs.outcome.result import RunResult
 from gcs.preflight import check_range
-from gcs.report import print_summary
-from gcs.result import RunResult
 from gcs.web.feed import LiveFeed
 from gcs.web.server import WebView
 from sitl_mock.connection import ConnectionStringError, mirror
@@ -66,25 +68,43 @@ def _numbers(text: str, count: int, option: str) -> tuple[float, ...]:
 
 
 def options_from(args: argparse.Namespace, mission: Mission) -> LiveOptions:
+    """The live mission's options of ``gcs run``, each checked for a one-line error."""
     speedup = args.speedup if args.speedup is not None else SIM_SPEEDUP if args.sim else 1.0
     if not speedup > 0:
         raise UsageError(f"--speedup must be positive, got {speedup}")
-    if not 0.0 <= args.sim_loss < 1.0:
-        raise UsageError(f"--sim-loss must be in [0, 1), got {args.sim_loss}")
-    if not 0.0 <= args.sim_battery_noise < 1.0:
-        raise UsageError(f"--sim-battery-noise must be in [0, 1), got {args.sim_battery_noise}")
     if args.lost_after <= 0:
         raise UsageError(f"--lost-after must be positive, got {args.lost_after}")
-    sags = tuple(_numbers(s, 2, "--sim-sag") for s in args.sim_sag)
-    if args.sim_latency < 0 or args.sim_jitter < 0:
-        raise UsageError("--sim-latency and --sim-jitter must not be negative")
-    sysids = {v.sysid for v in mission.fleet}
     if args.sim:
         for v in mission.fleet:
             try:
                 mirror(v.connection)  # the mock takes the other side of every connection
             except ConnectionStringError as exc:
                 raise UsageError(f"--sim: vehicle {v.sysid}: {exc}") from None
+    return LiveOptions(
+        speedup=speedup,
+        seed=args.seed,
+        heartbeat_timeout_s=args.heartbeat_timeout,
+        time_limit_s=args.time_limit,
+        agent=dataclasses.replace(AgentSettings(), lost_after_s=args.lost_after),
+        resume=_resume_point(args, mission),
+        keys=keys_from(args, mission),
+        allow_remote=args.allow_remote,
+        follow_address=args.follow_address,
+        forwards=tuple(forward_endpoints(args)),
+        forward_commands=args.forward_commands,
+    )
+
+
+def sim_faults_from(args: argparse.Namespace, mission: Mission) -> SimFaults:
+    """The faults ``--sim-*`` inject into the simulated fleet (none without ``--sim``)."""
+    if not 0.0 <= args.sim_loss < 1.0:
+        raise UsageError(f"--sim-loss must be in [0, 1), got {args.sim_loss}")
+    if not 0.0 <= args.sim_battery_noise < 1.0:
+        raise UsageError(f"--sim-battery-noise must be in [0, 1), got {args.sim_battery_noise}")
+    sags = tuple(_numbers(s, 2, "--sim-sag") for s in args.sim_sag)
+    if args.sim_latency < 0 or args.sim_jitter < 0:
+        raise UsageError("--sim-latency and --sim-jitter must not be negative")
+    sysids = {v.sysid for v in mission.fleet}
     cuts = []
     for text in args.sim_cut:
         sysid, at, duration = _numbers(text, 3, "--sim-cut")
@@ -97,51 +117,32 @@ def options_from(args: argparse.Namespace, mission: Mission) -> LiveOptions:
         if int(sysid) not in sysids:
             raise UsageError(f"--sim-die: no vehicle {int(sysid)} in the fleet")
         deaths.append((int(sysid), at))
-    faulty = (
-        args.sim_loss
-        or args.sim_battery_noise
-        or args.sim_latency
-        or args.sim_jitter
-        or sags
-        or cuts
-        or deaths
+    faults = SimFaults(
+        loss=args.sim_loss,
+        battery_noise=args.sim_battery_noise,
+        sags=sags,  # type: ignore[arg-type]
+        cuts=tuple(cuts),
+        latency_s=args.sim_latency,
+        jitter_s=args.sim_jitter,
+        deaths=tuple(deaths),
     )
-    if faulty and not args.sim:
+    if faults != SimFaults() and not args.sim:
         raise UsageError("--sim-* faults need --sim")
-    agent = dataclasses.replace(AgentSettings(), lost_after_s=args.lost_after)
-    resume = None
-    if args.resume is not None:
-        if args.out is not None and (args.out / LOG_NAME).resolve() == args.resume.resolve():
-            raise UsageError(
-                f"--out {args.out} would overwrite the log being resumed: choose another folder"
-            )
-        try:
-            resume = load_resume_point(args.resume, mission)
-        except ResumeError as exc:
-            raise UsageError(str(exc)) from exc
-    return LiveOptions(
-        sim=args.sim,
-        speedup=speedup,
-        seed=args.seed,
-        heartbeat_timeout_s=args.heartbeat_timeout,
-        time_limit_s=args.time_limit,
-        faults=SimFaults(
-            loss=args.sim_loss,
-            battery_noise=args.sim_battery_noise,
-            sags=sags,  # type: ignore[arg-type]
-            cuts=tuple(cuts),
-            latency_s=args.sim_latency,
-            jitter_s=args.sim_jitter,
-            deaths=tuple(deaths),
-        ),
-        agent=agent,
-        resume=resume,
-        keys=keys_from(args, mission),
-        allow_remote=args.allow_remote,
-        follow_address=args.follow_address,
-        forwards=tuple(forward_endpoints(args)),
-        forward_commands=args.forward_commands,
-    )
+    return faults
+
+
+def _resume_point(args: argparse.Namespace, mission: Mission) -> ResumePoint | None:
+    """``--resume LOG``: where that log left the mission (never the log this run writes)."""
+    if args.resume is None:
+        return None
+    if args.out is not None and (args.out / LOG_NAME).resolve() == args.resume.resolve():
+        raise UsageError(
+            f"--out {args.out} would overwrite the log being resumed: choose another folder"
+        )
+    try:
+        return load_resume_point(args.resume, mission)
+    except ResumeError as exc:
+        raise UsageError(str(exc)) from exc
 
 
 def forward_endpoints(args: argparse.Namespace) -> list[str]:
@@ -197,20 +198,47 @@ def run(args: argparse.Namespace) -> int:
     mission = load(args)
     if args.one_link is not None:
         mission = on_one_link(mission, args.one_link)
+    faults = sim_faults_from(args, mission)
     options = options_from(args, mission)
-    ports = None
     if args.keep_ports and not args.sim:
         raise UsageError("--keep-ports needs --sim")
+    ports = None
     if args.sim and not args.keep_ports:
         mission, ports = on_free_ports(mission)
+    # The rehearsal's fleet is built here, apart from the mission, which is handed it.
+    sim = MockFleetRehearsal(mission, faults, options.keys, options.seed) if args.sim else None
     if not logging.getLogger().handlers:
         # Library warnings (link lost...) reach the operator through the display instead.
         logging.getLogger().addHandler(logging.NullHandler())
     console = output_console(quiet=args.quiet)
-    errors = Console(stderr=True)
     reach = check_range(mission)
     if reach.out_of_range:
-        errors.print(f"[yellow]warning:[/] {reach.message()}")
+        Console(stderr=True).print(f"[yellow]warning:[/] {reach.message()}")
+    live, view, mission_log = _outputs(args, mission)
+    if ports is not None:
+        console.print(ports, markup=False, highlight=False)
+    display = LiveDisplay(quiet=args.quiet, console=console)
+    if isinstance(mission_log, McapMissionLog):
+        mission_log.on_failure = lambda text: display.notify(
+            f"{text}; the mission flies on (Ctrl-C brings every vehicle home)", Level.WARNING, None
+        )
+    try:
+        result, interrupted = asyncio.run(_main(mission, options, mission_log, display, view, sim))
+    except MissionRefused as exc:
+        print(f"gcs run: {exc}", file=sys.stderr)  # one line, never wrapped
+        return exc.exit_code
+    finally:
+        mission_log.close()
+        if live is not None:
+            live.close()
+    return _report(args, result, interrupted, mission_log, console)
+
+
+def _outputs(
+    args: argparse.Namespace, mission: Mission
+) -> tuple[LiveView | None, WebView | None, MissionLog]:
+    """Where the run is shown and kept: the Foxglove view (``--live``), the map page
+    (``--web``), and the log that feeds them (``--out``)."""
     live = open_live(args.live) if args.live is not None else None
     feed = LiveFeed() if wants_web(args) else None
     view = None if feed is None else web_view(args, mission.name, feed=feed)
@@ -226,22 +254,17 @@ def run(args: argparse.Namespace) -> int:
     if live is not None:
         # Also with --quiet: the operator asked for it, and needs the address.
         print(f"gcs run: Foxglove live view at {live.url}", file=sys.stderr, flush=True)
-    if ports is not None:
-        console.print(ports, markup=False, highlight=False)
-    display = LiveDisplay(quiet=args.quiet, console=console)
-    if isinstance(mission_log, McapMissionLog):
-        mission_log.on_failure = lambda text: display.notify(
-            f"{text}; the mission flies on (Ctrl-C brings every vehicle home)", Level.WARNING, None
-        )
-    try:
-        result, interrupted = asyncio.run(_main(mission, options, mission_log, display, view))
-    except MissionRefused as exc:
-        print(f"gcs run: {exc}", file=sys.stderr)  # one line, never wrapped
-        return exc.exit_code
-    finally:
-        mission_log.close()
-        if live is not None:
-            live.close()
+    return live, view, mission_log
+
+
+def _report(
+    args: argparse.Namespace,
+    result: RunResult,
+    interrupted: bool,
+    mission_log: MissionLog,
+    console: Console,
+) -> int:
+    """The summary and the outputs of a run that flew; its exit status."""
     console.print()
     print_summary(result, console)
     failure = getattr(mission_log, "failure", None)
@@ -260,6 +283,7 @@ async def _main(
     mission_log: MissionLog,
     display: LiveDisplay,
     view: WebView | None,
+    sim: SimulatedFleet | None,
 ) -> tuple[RunResult, bool]:
     abort = asyncio.Event()
     loop = asyncio.get_running_loop()
@@ -271,7 +295,7 @@ async def _main(
             if view is not None:
                 await start_web(view, "run")
                 stack.push_async_callback(view.close)
-            result = await _fly_with_display(mission, options, mission_log, display, abort)
+            result = await _fly_with_display(mission, options, mission_log, display, abort, sim)
     finally:
         with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):
             loop.remove_signal_handler(signal.SIGINT)
@@ -284,10 +308,11 @@ async def _fly_with_display(
     mission_log: MissionLog,
     display: LiveDisplay,
     abort: asyncio.Event,
+    sim: SimulatedFleet | None,
 ) -> RunResult:
     with display:
         return await run_live(
-            mission, options, mission_log, display.notify, abort, on_start=display.attach
+            mission, options, mission_log, display.notify, abort, display.attach, sim
         )
 
 

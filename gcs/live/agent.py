@@ -49,6 +49,7 @@ from gcs.live.sensing import (
     still_between,
 )
 from gcs.live.shared import Level, Phase, SharedPlanner, VehicleView
+from gcs.log.mission_log import GeoFix
 from gcs.mission import Sensing, VehicleSpec
 from planner.coordinator import Action, ActionKind, AgentMode
 from planner.grid import Cell, CellState, Direction, manhattan
@@ -68,7 +69,7 @@ _ERROR_SEVERITY = mavlink.MAV_SEVERITY_ERROR
 
 
 def log_level(severity: int) -> str:
-    """The mission log's level (``gcs.mcap_log.LOG_LEVELS``) of a STATUSTEXT severity:
+    """The mission log's level (``gcs.log.topics.LOG_LEVELS``) of a STATUSTEXT severity:
     EMERGENCY, ALERT and CRITICAL are fatal, ERROR an error, WARNING a warning, NOTICE
     and INFO information, DEBUG debug."""
     if severity <= mavlink.MAV_SEVERITY_CRITICAL:
@@ -451,9 +452,8 @@ class Agent:
         self._last_cell = cell
         self.view.cell = cell
         self.view.battery_pct = battery
-        await self.planner.observe(
-            self.id, cell, readings, battery, (pos.lat_deg, pos.lon_deg, pos.heading_deg)
-        )
+        fix = GeoFix(pos.lat_deg, pos.lon_deg, pos.heading_deg)
+        await self.planner.observe(self.id, cell, readings, battery, fix)
 
     async def _sense(self, cell: Cell, pos: Position) -> dict[Direction, CellState]:
         if self.spec.sensing == Sensing.MAP:

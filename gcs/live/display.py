@@ -21,7 +21,7 @@ from rich.live import Live
 from rich.table import Table
 from rich.text import Text
 
-from gcs.live.mission import LiveRun
+from gcs.live.run import LiveRun
 from gcs.live.shared import Level, Phase, VehicleView
 from gcs.live.status import activity, mission_progress
 from vehicles.link import RejectedFrames

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gcs.result import AgentTrace, BtpLog, RunResult
+from gcs.outcome.result import AgentTrace, BtpLog, RunResult
 from planner.coordinator import Coordinator, EventKind, PlannerEvent
 from planner.grid import Cell, manhattan
 

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gcs.log_reader import LogError, VehicleState, final_map, read_contents
+from gcs.log.reader import LogError, VehicleState, final_map, read_contents
 from gcs.mission import Mission
 from planner.grid import Cell
 

@@ -25,7 +25,7 @@ from enum import StrEnum
 from typing import Any, TypeVar
 
 from gcs.live.record import MissionRecord
-from gcs.mission_log import MissionLog
+from gcs.log.mission_log import GeoFix, MissionLog
 from planner.coordinator import (
     WAIT,
     Action,
@@ -194,7 +194,7 @@ class SharedPlanner:
         cell: Cell,
         readings: Mapping[Direction, CellState],
         battery_pct: float,
-        lat_lon_heading: tuple[float, float, float | None] | None = None,
+        fix: GeoFix | None = None,
     ) -> None:
         async with self._lock:
             self._observed_at[agent] = time.perf_counter()
@@ -202,7 +202,7 @@ class SharedPlanner:
             self._at[agent] = cell
             self._heading_for.pop(agent, None)
             await self._timed(self.coordinator.observe, agent, cell, readings, battery_pct)
-            self._observed(agent, cell, battery_pct, before, readings, lat_lon_heading)
+            self._observed(agent, cell, battery_pct, before, readings, fix)
 
     def _observed(
         self,
@@ -211,21 +211,11 @@ class SharedPlanner:
         battery_pct: float,
         before: AgentMode,
         readings: Mapping[Direction, CellState],
-        lat_lon_heading: tuple[float, float, float | None] | None,
+        fix: GeoFix | None,
     ) -> None:
         self.record.arrived(agent, cell, battery_pct, self.coordinator.belief.covered_count)
-        lat, lon, heading = lat_lon_heading or (None, None, None)
-        self.log.agent_state(
-            self.t_s,
-            agent,
-            cell,
-            battery_pct,
-            str(self.coordinator.mode(agent)),
-            lat,
-            lon,
-            heading,
-            readings,
-        )
+        mode = str(self.coordinator.mode(agent))
+        self.log.agent_state(self.t_s, agent, cell, battery_pct, mode, fix, readings)
         self._after(agent, before, force_coverage=False)
         self.changed.notify()
 

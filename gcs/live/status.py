@@ -13,13 +13,13 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from gcs.live.shared import Phase, SharedPlanner, VehicleView
-from gcs.mission_log import WAY_CELLS, MissionLog, MissionProgress, VehicleStatus
+from gcs.log.mission_log import WAY_CELLS, MissionLog, MissionProgress, VehicleStatus
 from planner.belief import UNREACHED
 from planner.coordinator import AgentMode
 from planner.grid import Cell
 
 if TYPE_CHECKING:
-    from gcs.live.mission import LiveRun
+    from gcs.live.run import LiveRun
 
 #: A vehicle's way ahead and the length of its way home (None: no known way).
 Planned = tuple[tuple[Cell, ...], float | None]

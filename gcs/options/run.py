@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from gcs.foxglove_live import DEFAULT_PORT
-from gcs.foxglove_live import HOST as LIVE_HOST
+from gcs.log.foxglove_live import DEFAULT_PORT
+from gcs.log.foxglove_live import HOST as LIVE_HOST
 from gcs.options import runs
 from gcs.options.web import add_web_options
 

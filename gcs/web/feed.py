@@ -7,7 +7,7 @@ draw the tracks), the others only their latest message matters (the map, the
 statuses, the progress): a client that falls behind gets the latest of those,
 never a backlog, so updates coalesce by themselves.
 
-``LiveFeed`` is a :class:`gcs.mcap_log.LogSink`: the log hands it every message
+``LiveFeed`` is a :class:`gcs.log.mcap_log.LogSink`: the log hands it every message
 as it writes it, on the event loop's thread, and it only files the bytes away;
 the clients' own tasks read it (``since``) at their own pace.
 """
@@ -21,7 +21,7 @@ import re
 from dataclasses import dataclass
 from enum import Enum
 
-from gcs.mcap_log import (
+from gcs.log.topics import (
     BTPS_TOPIC,
     EVENTS_TOPIC,
     MAP_TOPIC,

@@ -13,8 +13,8 @@ from pathlib import Path
 
 from mcap.records import Channel, Message, Schema
 
-from gcs.log_reader import LogError, mcap_records
-from gcs.mcap_log import META_TOPIC
+from gcs.log.reader import LogError, mcap_records
+from gcs.log.topics import META_TOPIC
 from gcs.web.feed import kind_of, message, record
 
 
@@ -45,7 +45,7 @@ def load_replay(path: Path) -> Replay:
             elif isinstance(item, Message):
                 topic = topics.get(item.channel_id, "")
                 if topic == META_TOPIC:
-                    # Stamps count from the mission start it names (``gcs.mcap_log``).
+                    # Stamps count from the mission start it names (``gcs.log.mcap_log``).
                     started_ns = int(json.loads(item.data).get("started_unix_ns", 0))
                 if kind_of(topic) is None:
                     continue

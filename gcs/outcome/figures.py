@@ -33,8 +33,8 @@ from matplotlib.patches import Patch
 from matplotlib.ticker import FixedLocator, MaxNLocator
 from numpy.typing import ArrayLike
 
-from gcs.log_reader import LogContents, LogError, VehicleState, read_contents
-from gcs.result import AgentTrace, RunResult
+from gcs.log.reader import LogContents, LogError, VehicleState, read_contents
+from gcs.outcome.result import AgentTrace, RunResult
 from planner.grid import Cell, CellState
 
 COVERAGE_PNG = "coverage.png"

@@ -1,4 +1,4 @@
-"""Read a mission log (MCAP) back into a :class:`~gcs.result.RunResult`.
+"""Read a mission log (MCAP) back into a :class:`~gcs.outcome.result.RunResult`.
 
 A finished log carries the whole result on ``/run/result`` and is rebuilt
 exactly. A log whose writer died has no result and no summary section, and
@@ -22,7 +22,8 @@ from mcap.records import Channel, Chunk, Footer, Message, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import MCAP0_MAGIC
 
-from gcs.mcap_log import (
+from gcs.log.result_json import result_from_json
+from gcs.log.topics import (
     BTPS_TOPIC,
     EVENTS_TOPIC,
     GRID_COVERED,
@@ -32,9 +33,8 @@ from gcs.mcap_log import (
     RESULT_TOPIC,
     codes_from_grid,
     readings_from_code,
-    result_from_json,
 )
-from gcs.result import AgentTrace, BtpRecord, RunResult
+from gcs.outcome.result import AgentTrace, BtpRecord, RunResult
 from planner.coordinator import AgentMode, EventKind
 from planner.grid import Cell, CellState, Direction
 
@@ -172,7 +172,7 @@ def _take(contents: LogContents, channel: Channel, message: Message) -> None:
 
 def mission_s(contents: LogContents, log_time_ns: int) -> float:
     """The mission seconds of a message's ``log_time``: UTC since ``started_unix_ns`` of
-    ``/run/meta`` (see :mod:`gcs.mcap_log`); logs written before that stamped mission
+    ``/run/meta`` (see :mod:`gcs.log.mcap_log`); logs written before that stamped mission
     time itself (from 0)."""
     started = (contents.meta or {}).get("started_unix_ns")
     return (log_time_ns - int(started)) / 1e9 if started is not None else log_time_ns / 1e9

@@ -48,7 +48,7 @@ class LiveView:
 
     def publish(self, topic: str, schema: str, t_s: float, data: bytes) -> None:
         """One JSON message of ``schema`` (a name of ``schemas``) on ``topic``, now (a
-        :class:`gcs.mcap_log.LogSink`; ``t_s``, the mission time, is in the message)."""
+        :class:`gcs.log.mcap_log.LogSink`; ``t_s``, the mission time, is in the message)."""
         channel = self._channels.get(topic)
         if channel is None:
             definition = json.dumps(self._schemas.get(schema, {"type": "object"})).encode()
@@ -61,7 +61,7 @@ class LiveView:
             self._channels[topic] = channel
         # Stamped with the wall clock as it is sent, as a live source is; the message's own
         # timestamp is the file's stamp (the mission start plus the mission time, which runs
-        # ahead of the wall clock under a speed-up: see ``gcs.mcap_log``).
+        # ahead of the wall clock under a speed-up: see ``gcs.log.mcap_log``).
         channel.log(data, log_time=time.time_ns())
 
     def close(self) -> None:

@@ -4,19 +4,29 @@ Times are mission seconds (simulated time under a speed-up; iterations in an
 offline run). Both the live mission and the offline simulation write through
 this interface, so that a log looks the same whichever produced it. The live
 mission says when its mission time 0 is (``start``): the MCAP log stamps its
-messages in UTC from there (:mod:`gcs.mcap_log`).
+messages in UTC from there (:mod:`gcs.log.mcap_log`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 import numpy as np
 
-from gcs.result import RunResult
+from gcs.outcome.result import RunResult
 from planner.grid import Cell, CellState, Direction
+
+
+class GeoFix(NamedTuple):
+    """Where a vehicle's own telemetry puts it (a live run's; an offline run has none,
+    and the log places it on its cell's centre)."""
+
+    lat_deg: float
+    lon_deg: float
+    #: None: the log takes the heading of the vehicle's last move.
+    heading_deg: float | None = None
 
 
 @dataclass(frozen=True)
@@ -89,9 +99,7 @@ class MissionLog(Protocol):
         cell: Cell,
         battery_pct: float,
         mode: str,
-        lat_deg: float | None = None,
-        lon_deg: float | None = None,
-        heading_deg: float | None = None,
+        fix: GeoFix | None = None,
         readings: Mapping[Direction, CellState] | None = None,
     ) -> None:
         """Where a vehicle is and how it is doing (after every move, and on changes), and
@@ -135,9 +143,7 @@ class NullLog:
         cell: Cell,
         battery_pct: float,
         mode: str,
-        lat_deg: float | None = None,
-        lon_deg: float | None = None,
-        heading_deg: float | None = None,
+        fix: GeoFix | None = None,
         readings: Mapping[Direction, CellState] | None = None,
     ) -> None:
         pass

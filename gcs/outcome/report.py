@@ -1,6 +1,6 @@
 """The report of a finished run: ``report.json`` and the terminal summary.
 
-Everything here is derived from a :class:`~gcs.result.RunResult`; nothing is
+Everything here is derived from a :class:`~gcs.outcome.result.RunResult`; nothing is
 recomputed from logs or the world, so the report says exactly what the run said.
 """
 
@@ -16,7 +16,7 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-from gcs.result import AgentTrace, RunResult
+from gcs.outcome.result import AgentTrace, RunResult
 
 REPORT_NAME = "report.json"
 #: Decimals kept for every float in the report.

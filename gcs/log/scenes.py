@@ -1,0 +1,113 @@
+"""The log's scene messages, built for Foxglove's well-known schemas: stamps, scene
+entities (the vehicles' tracks, the BTPs), and the map as a ``foxglove.Grid``."""
+
+from __future__ import annotations
+
+import base64
+import json
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from gcs.log.topics import GRID_RGBA, MAP_FRAME, grid_codes
+from planner.grid import Cell
+from vehicles.geo import GeoFrame
+
+
+def stamp(ns: int) -> dict[str, int]:
+    return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
+
+
+IDENTITY = {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}
+
+
+def move_heading(a: Cell, b: Cell) -> float | None:
+    """Compass heading of a move between neighbouring cells (rows grow southwards)."""
+    if a == b:
+        return None
+    return math.degrees(math.atan2(b[1] - a[1], a[0] - b[0])) % 360.0
+
+
+def _entity(ns: int, entity_id: str, **primitives: Any) -> dict[str, Any]:
+    entity: dict[str, Any] = {
+        "timestamp": stamp(ns),
+        "frame_id": MAP_FRAME,
+        "id": entity_id,
+        "lifetime": {"sec": 0, "nsec": 0},
+        "frame_locked": False,
+        "metadata": primitives.pop("metadata", []),
+    }
+    for kind in ("arrows", "cubes", "spheres", "cylinders", "lines", "triangles", "texts"):
+        entity[kind] = primitives.pop(kind, [])
+    entity["models"] = []
+    return entity
+
+
+def track_entity(
+    ns: int, sysid: int, colour: tuple[float, float, float], track: Sequence[str], width: float
+) -> str:
+    """A vehicle's whole track as a scene entity's JSON text; ``track``: its points as
+    JSON ``foxglove.Point3`` text, spliced in rather than encoded again."""
+    line = {
+        "type": 0,  # LINE_STRIP
+        "pose": {"position": {"x": 0.0, "y": 0.0, "z": 0.05}, "orientation": IDENTITY},
+        "thickness": width,
+        "scale_invariant": False,
+        "points": [],
+        "color": {"r": colour[0], "g": colour[1], "b": colour[2], "a": 0.9},
+        "colors": [],
+        "indices": [],
+    }
+    metadata = [{"key": "sysid", "value": str(sysid)}]
+    text = json.dumps(_entity(ns, f"track/{sysid}", lines=[line], metadata=metadata))
+    return text.replace('"points": []', f'"points":[{",".join(track)}]', 1)
+
+
+def btps_entity(
+    ns: int, cells: Sequence[Cell], geo: GeoFrame, cell_size_m: float
+) -> dict[str, Any]:
+    """The BTPs as red spheres, their cells also in the metadata."""
+    size = 0.5 * cell_size_m
+    spheres = []
+    for cell in cells:
+        north, east = geo.cell_centre_local(cell)
+        spheres.append(
+            {
+                "pose": {
+                    "position": {"x": east, "y": north, "z": 0.1},
+                    "orientation": IDENTITY,
+                },
+                "size": {"x": size, "y": size, "z": size},
+                "color": {"r": 0.9, "g": 0.1, "b": 0.1, "a": 0.9},
+            }
+        )
+    cells_json = json.dumps([list(c) for c in cells], separators=(",", ":"))
+    return _entity(ns, "btps", spheres=spheres, metadata=[{"key": "cells", "value": cells_json}])
+
+
+def grid_message(
+    ns: int, belief: np.ndarray, covered: np.ndarray, cell_size_m: float
+) -> dict[str, Any]:
+    """The map as a ``foxglove.Grid``: each cell's code and its colour."""
+    codes = grid_codes(belief, covered)
+    rows, cols = codes.shape
+    cells = np.concatenate([codes[:, :, None], GRID_RGBA[codes]], axis=2)
+    data = np.flipud(cells).tobytes()  # Foxglove's first row is the southern one
+    stride = cells.shape[2]
+    names = ("state", "red", "green", "blue", "alpha")
+    return {
+        "timestamp": stamp(ns),
+        "frame_id": MAP_FRAME,
+        "pose": {
+            "position": {"x": 0.0, "y": -rows * cell_size_m, "z": 0.0},
+            "orientation": IDENTITY,
+        },
+        "column_count": cols,
+        "cell_size": {"x": cell_size_m, "y": cell_size_m},
+        "row_stride": cols * stride,
+        "cell_stride": stride,
+        "fields": [{"name": n, "offset": k, "type": 1} for k, n in enumerate(names)],
+        "data": base64.b64encode(data).decode("ascii"),
+    }

@@ -1,0 +1,313 @@
+"""Offline simulation: the planner against the ground-truth world, in lockstep iterations.
+
+An iteration gives every agent one decision (at most one move each), as the
+paper counts them. With ``SimOptions.timed`` an iteration is instead a tick of
+mission time: each vehicle decides once per cell at its own speed and charges
+at its own rate, as the live fleet does, so the plan predicts a live run.
+The planner only ever sees what the world's sensing answers at the cells its
+agents stand on; the truth stays in ``sitl_mock``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+from gcs.log.mission_log import MissionLog
+from gcs.mission import Mission
+from gcs.outcome.result import AgentTrace, BtpLog, RunResult
+from gcs.planning import planner_settings, prior_map
+from planner.coordinator import ActionKind, AgentMode, Coordinator, EventKind, PlannerEvent
+from planner.grid import Cell
+from planner.settings import AgentSpec, PlannerSettings
+from sitl_mock.lockstep import Body, LockstepWorld
+
+Progress = Callable[[int, int, int], None]
+"""Called after each iteration with (iteration, covered cells, free cells)."""
+
+#: Planner events an operator sees in the log's timeline.
+LOGGED_EVENTS = frozenset(
+    {
+        EventKind.RETURN,
+        EventKind.CHARGED,
+        EventKind.SAFETY_NET,
+        EventKind.COVERAGE_COMPLETE,
+        EventKind.CUT_OFF,
+        EventKind.LOST,
+    }
+)
+#: Events after which the BTP stacks may have changed.
+BTP_EVENTS = frozenset({EventKind.BTP_DETECTED, EventKind.BTP_COVERED, EventKind.TARGET})
+#: Iterations between two map snapshots in the log.
+LOG_MAP_EVERY = 25
+
+
+@dataclass(frozen=True)
+class SimOptions:
+    seed: int = 0
+    max_iterations: int | None = None
+    #: Planner settings to use instead of the ones the mission gives.
+    settings: PlannerSettings | None = None
+    #: Model each vehicle's speed and charge rate in mission seconds (see the module doc).
+    timed: bool = False
+
+
+@dataclass(frozen=True)
+class Pace:
+    """How often the agents act: every ``step[i]`` mission seconds, in ticks of ``tick_s``."""
+
+    tick_s: float
+    step: dict[int, float]
+    bodies: list[Body]
+
+    @classmethod
+    def of(cls, mission: Mission, timed: bool) -> Pace:
+        if not timed:
+            bodies = [Body(v.sysid, v.energy_per_m_pct) for v in mission.fleet]
+            return cls(1.0, {v.sysid: 1.0 for v in mission.fleet}, bodies)
+        step = {v.sysid: mission.cell_size_m / v.speed_m_s for v in mission.fleet}
+        tick = min(step.values())
+        bodies = [
+            Body(v.sysid, v.energy_per_m_pct, v.charge_rate_pct_s * tick) for v in mission.fleet
+        ]
+        return cls(tick, step, bodies)
+
+
+def simulate(
+    mission: Mission,
+    options: SimOptions | None = None,
+    progress: Progress | None = None,
+    events: list[tuple[int, PlannerEvent]] | None = None,
+    log: MissionLog | None = None,
+) -> RunResult:
+    """Run the mission's fleet over its map until coverage is complete and all are home.
+
+    ``events``, if given, receives every planner event with its iteration.
+    ``log``, if given, records the run (mission time = iteration) and is closed at the end.
+    """
+    run = _LockstepRun(mission, options or SimOptions(), events, log)
+    iteration = run.fly(progress)
+    result = run.result(iteration)
+    if log is not None:
+        log.coverage(iteration, result.belief, result.covered)
+        log.result(iteration, result)
+        log.close()
+    return result
+
+
+def _iteration_limit(mission: Mission, options: SimOptions, pace: Pace, free_cells: int) -> int:
+    """The iterations (ticks, when timed) after which the run stops unfinished."""
+    limit = options.max_iterations or mission.planner.max_iterations or 40 * free_cells + 1000
+    if options.timed and not options.max_iterations:
+        limit = round(limit * max(pace.step.values()) / pace.tick_s)
+    return limit
+
+
+class _LockstepRun:
+    """One offline run: the truth, the planner, and what is kept of each iteration for
+    the result (tracks, batteries, moves, coverage, BTPs) and the log."""
+
+    def __init__(
+        self,
+        mission: Mission,
+        options: SimOptions,
+        events: list[tuple[int, PlannerEvent]] | None,
+        log: MissionLog | None,
+    ) -> None:
+        self.mission, self.options, self.events, self.log = mission, options, events, log
+        grid = mission.map
+        if grid.pads[:1] != (mission.charger,):
+            grid = replace(grid, pads=(mission.charger,))
+        self.grid = grid
+        self.ids = ids = [v.sysid for v in mission.fleet]
+        self.pace = Pace.of(mission, options.timed)
+        self.world = LockstepWorld(
+            grid,
+            self.pace.bodies,
+            cell_size_m=mission.cell_size_m,
+            charge_pct_per_step=mission.planner.charge_pct_per_step,
+            charging_slots=mission.planner.charging_slots,
+        )
+        self.reachable = grid.reachable()
+        self.free_cells = int(self.reachable.sum())
+        self.limit = _iteration_limit(mission, options, self.pace, self.free_cells)
+        self.ready_at = dict.fromkeys(ids, 0.0)
+        self.t0 = time.perf_counter()
+        self.planner_s = 0.0
+        self.coordinator = self._start_planner()
+        self.tracks: dict[int, list[Cell]] = {i: [grid.charger] for i in ids}
+        self.batteries: dict[int, list[float]] = {i: [100.0] for i in ids}
+        self.path_moves = dict.fromkeys(ids, 0)
+        self.homing_moves = dict.fromkeys(ids, 0)
+        self.covered_series = [self.coordinator.belief.covered_count]
+        self.btps = BtpLog()
+        self.coverage_iterations: int | None = None
+
+    def _start_planner(self) -> Coordinator:
+        """The planner, with every agent's first readings on the charger."""
+        mission, grid, world = self.mission, self.grid, self.world
+        tick = time.perf_counter()
+        coordinator = Coordinator(
+            grid.shape,
+            grid.charger,
+            [AgentSpec(v.sysid, v.energy_per_m_pct) for v in mission.fleet],
+            self.options.settings or planner_settings(mission, self.options.seed),
+            prior=prior_map(mission),
+        )
+        for i in self.ids:
+            coordinator.observe(i, grid.charger, world.sense(grid.charger), world.battery[i])
+        self.planner_s += time.perf_counter() - tick
+        return coordinator
+
+    def fly(self, progress: Progress | None) -> int:
+        """Iterate until the planner is finished or the limit; returns the last iteration."""
+        coordinator, log = self.coordinator, self.log
+        self._record(0)
+        if log is not None:
+            self._log_state(0)
+            log.coverage(0, coordinator.belief.state_grid(), coordinator.belief.covered_grid())
+        iteration = 0
+        while iteration < self.limit and not coordinator.finished:
+            iteration += 1
+            self._act((iteration - 1) * self.pace.tick_s)
+            self._end_iteration(iteration)
+            if progress is not None:
+                progress(iteration, coordinator.belief.covered_count, self.free_cells)
+        return iteration
+
+    def _act(self, now: float) -> None:
+        """Every agent whose turn it is decides once, and the world carries it out."""
+        coordinator, world, ready_at, pace = self.coordinator, self.world, self.ready_at, self.pace
+        # Looked up once: the loop below makes three look-ups of enum members per agent-step.
+        move, charge, homing_mode = ActionKind.MOVE, ActionKind.CHARGE, AgentMode.HOMING
+        for i in self.ids:
+            if i in world.dead or ready_at[i] > now + 1e-9:
+                continue
+            tick = time.perf_counter()
+            homing = coordinator.mode(i) == homing_mode or coordinator.homeward
+            action = coordinator.decide(i)
+            self.planner_s += time.perf_counter() - tick
+            if action.kind == move:
+                assert action.to is not None
+                world.move(i, action.to)
+                if homing:
+                    self.homing_moves[i] += 1
+                else:
+                    self.path_moves[i] += 1
+                tick = time.perf_counter()
+                if i in world.dead:
+                    coordinator.mark_lost(i)
+                else:
+                    coordinator.observe(i, action.to, world.sense(action.to), world.battery[i])
+                self.planner_s += time.perf_counter() - tick
+            if action.kind == charge:
+                world.request_charge(i)
+                ready_at[i] = now + pace.tick_s
+            else:
+                ready_at[i] = max(ready_at[i] + pace.step[i], now + pace.tick_s)
+
+    def _end_iteration(self, iteration: int) -> None:
+        """Batteries told to the planner; tracks, coverage, events and the log kept."""
+        coordinator, world = self.coordinator, self.world
+        world.end_iteration()
+        tick = time.perf_counter()
+        for i in self.ids:
+            if i not in world.dead:
+                coordinator.update_battery(i, world.battery[i])
+        self.planner_s += time.perf_counter() - tick
+        for i in self.ids:
+            self.tracks[i].append(world.position[i])
+            self.batteries[i].append(world.battery[i])
+        self.covered_series.append(coordinator.belief.covered_count)
+        # Ask before recording: the first time it holds, the planner emits the
+        # coverage-complete event, which belongs to this iteration.
+        if self.coverage_iterations is None and coordinator.coverage_complete:
+            self.coverage_iterations = iteration
+        self._record(iteration)
+        if self.log is not None:
+            self._log_state(iteration)
+            if iteration % LOG_MAP_EVERY == 0:
+                belief = coordinator.belief
+                self.log.coverage(iteration, belief.state_grid(), belief.covered_grid())
+
+    def _log_state(self, iteration: int) -> None:
+        assert self.log is not None
+        for i in self.ids:
+            mode = self.coordinator.mode(i)
+            self.log.agent_state(
+                iteration, i, self.world.position[i], self.world.battery[i], mode.value
+            )
+
+    def _record(self, iteration: int) -> None:
+        """The planner's events of this iteration: to ``events``, the log and the BTP log."""
+        log = self.log
+        btps_changed = False
+        for event in self.coordinator.drain_events():
+            if self.events is not None:
+                self.events.append((iteration, event))
+            if log is not None:
+                btps_changed = btps_changed or event.kind in BTP_EVENTS
+                if event.kind in LOGGED_EVENTS:
+                    where = f" at {event.cell}" if event.cell is not None else ""
+                    text = f"{event.kind.value}: vehicle {event.agent}{where}"
+                    level = "error" if event.kind == EventKind.LOST else "info"
+                    log.event(iteration, text, level, event.agent)
+            self.btps.note(event, iteration)
+        if btps_changed:
+            assert log is not None
+            log.btps(iteration, self.coordinator.btps())
+
+    def _agents(self) -> tuple[AgentTrace, ...]:
+        cell_m, coordinator = self.mission.cell_size_m, self.coordinator
+        return tuple(
+            AgentTrace(
+                id=i,
+                track=tuple(self.tracks[i]),
+                battery_pct=tuple(self.batteries[i]),
+                path_m=self.path_moves[i] * cell_m,
+                homing_m=self.homing_moves[i] * cell_m,
+                charges=coordinator.charges(i),
+                min_battery_pct=min(self.batteries[i]),
+                lost=i in self.world.dead or coordinator.mode(i) == AgentMode.LOST,
+            )
+            for i in self.ids
+        )
+
+    def _extra(self, iteration: int) -> dict[str, float | int | str]:
+        coordinator, tick_s = self.coordinator, self.pace.tick_s
+        extra: dict[str, float | int | str] = {
+            "btps_detected": coordinator.btps_detected,
+            "cut_off_cells": coordinator.cut_off_cells,
+            "total_iterations": iteration,
+        }
+        if self.options.timed:
+            extra["mission_s"] = round(iteration * tick_s, 3)
+            extra["coverage_s"] = round((self.coverage_iterations or iteration) * tick_s, 3)
+        return extra
+
+    def result(self, iteration: int) -> RunResult:
+        mission, grid, coordinator = self.mission, self.grid, self.coordinator
+        covered = coordinator.belief.covered_grid()
+        return RunResult(
+            mission=mission.name,
+            shape=grid.shape,
+            cell_size_m=mission.cell_size_m,
+            charger=grid.charger,
+            reserve_pct=mission.planner.reserve_pct,
+            belief=coordinator.belief.state_grid(),
+            covered=covered,
+            agents=self._agents(),
+            btps=self.btps.records(),
+            covered_per_iteration=tuple(self.covered_series),
+            iterations=(
+                self.coverage_iterations if self.coverage_iterations is not None else iteration
+            ),
+            free_cells=self.free_cells,
+            covered_cells=int((covered & self.reachable).sum()),
+            out_of_range_cells=len(coordinator.out_of_range_cells()),
+            safety_net_fires=coordinator.safety_net_fires,
+            wall_s=time.perf_counter() - self.t0,
+            planner_s=self.planner_s,
+            extra=self._extra(iteration),
+        )
