@@ -339,7 +339,7 @@ class Agent:
                 self.view.phase = before
                 self._tell(f"link is back after {self._since(lost_at)}{self._mode_now()}")
         finally:
-            await events.aclose()  # type: ignore[attr-defined]
+            await events.aclose()
 
     def _since(self, then: float) -> str:
         return f"{self.pilot.clock.now() - then:.0f} s"
@@ -372,7 +372,7 @@ class Agent:
                         self._odometer_m += step
                 last = pos
         finally:
-            await positions.aclose()  # type: ignore[attr-defined]
+            await positions.aclose()
 
     async def _track_battery(self) -> None:
         """Feed the energy estimate with each battery update and the distance since, as
@@ -391,7 +391,7 @@ class Agent:
                 self.view.battery_pct = battery.remaining_pct
                 self.planner.record.agents[self.id].odometer_m = self._odometer_m
         finally:
-            await updates.aclose()  # type: ignore[attr-defined]
+            await updates.aclose()
 
     async def _relay_statustext(self) -> None:
         """What the vehicle says (STATUSTEXT), as ``vehicle N says: ...``. Every text goes
@@ -420,7 +420,7 @@ class Agent:
                     planner = self.planner
                     planner.log.event(planner.t_s, said, log_level(text.severity), self.id)
         finally:
-            await texts.aclose()  # type: ignore[attr-defined]
+            await texts.aclose()
 
     # -- actions -----------------------------------------------------------------------------
 
