@@ -22,6 +22,7 @@ from mcap.records import Channel, Chunk, Footer, Message, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import MCAP0_MAGIC
 
+from core.cells import Cell, CellState, Direction
 from gcs.mcap_log import (
     BTPS_TOPIC,
     EVENTS_TOPIC,
@@ -36,7 +37,6 @@ from gcs.mcap_log import (
 )
 from gcs.result import AgentTrace, BtpRecord, RunResult
 from planner.coordinator import AgentMode, EventKind
-from planner.grid import Cell, CellState, Direction
 
 #: Modes whose moves count as driving home after coverage, not as coverage path.
 HOMING_MODES = frozenset({AgentMode.HOMING.value, AgentMode.DONE.value})

@@ -22,7 +22,7 @@ Time: every message's ``log_time`` (and ``publish_time``, and the ``timestamp``
 inside the Foxglove messages) is UTC: the wall clock at mission time 0 (the
 mission's start, ``start``) plus the mission seconds of the message. Mission
 time, not the wall clock at the moment of writing, because the mission clock is
-injected and runs faster than real time under a speed-up (``vehicles.clock``):
+injected and runs faster than real time under a speed-up (``core.clocks``):
 stamped on the wall clock, a simulated run's log would squeeze ten minutes of
 battery drain into one and put events in the order the event loop happened to
 write them, while stamped on mission time a log reads the same, in vehicle
@@ -54,11 +54,11 @@ from typing import IO, Any, Protocol
 import numpy as np
 from mcap.writer import CompressionType, Writer
 
+from core.cells import Cell, CellState, Direction
+from core.geo import GeoFrame
 from gcs.mission import Mission
 from gcs.mission_log import MissionProgress, VehicleStatus
 from gcs.result import AgentTrace, BtpRecord, RunResult
-from planner.grid import Cell, CellState, Direction
-from vehicles.geo import GeoFrame
 
 PROFILE = ""
 MAP_FRAME = "map"

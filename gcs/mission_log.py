@@ -15,8 +15,8 @@ from typing import Protocol
 
 import numpy as np
 
+from core.cells import Cell, CellState, Direction
 from gcs.result import RunResult
-from planner.grid import Cell, CellState, Direction
 
 
 @dataclass(frozen=True)

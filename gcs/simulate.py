@@ -16,11 +16,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from core.cells import Cell, CellState
 from gcs.mission import Mission
 from gcs.mission_log import MissionLog
 from gcs.result import AgentTrace, BtpLog, RunResult
 from planner.coordinator import ActionKind, AgentMode, Coordinator, EventKind, PlannerEvent
-from planner.grid import Cell, CellState
 from planner.settings import AgentSpec, PathPlannerKind, PlannerSettings
 from sitl_mock.lockstep import Body, LockstepWorld
 

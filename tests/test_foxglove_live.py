@@ -18,9 +18,9 @@ import pytest
 from mcap.reader import make_reader
 from websockets.asyncio.client import ClientConnection, connect
 
+from core.cells import CellState
 from gcs.foxglove_live import LiveView
 from gcs.mcap_log import SCHEMAS
-from planner.grid import CellState
 from tests.checks import open_mission_log
 from tests.test_live_mission import SMALL, write_mission
 from tests.test_mcap_log import _mission

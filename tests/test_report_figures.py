@@ -18,6 +18,7 @@ from matplotlib.transforms import Bbox
 from PIL import Image
 from rich.console import Console
 
+from core.cells import Cell, CellState
 from gcs.figures import (
     MISSION_LOG,
     PREDICTED_TIME_LABEL,
@@ -34,7 +35,6 @@ from gcs.log_reader import LogContents, VehicleState, read_contents, read_log
 from gcs.report import print_summary, report_dict, summary_rows, write_report
 from gcs.result import AgentTrace, BtpRecord, RunResult
 from gcs.simulate import simulate
-from planner.grid import Cell, CellState
 from sitl_mock import mapgen
 from tests.checks import make_mission, open_mission_log
 

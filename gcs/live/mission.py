@@ -40,6 +40,7 @@ from typing import TypeVar
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from core.clocks import Clock, ScaledClock
 from gcs.errors import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_INTERRUPTED
 from gcs.live.agent import Agent, AgentSettings, announce, send_home
 from gcs.live.energy import EnergyEstimator, EnergySettings, model_prior
@@ -58,7 +59,6 @@ from gcs.warm_up import warm_up_planner
 from planner.coordinator import Coordinator
 from planner.settings import AgentSpec
 from sitl_mock.fleet import MockFleet
-from vehicles.clock import Clock, ScaledClock
 from vehicles.commands import CommandSettings
 from vehicles.endpoints import Endpoint, EndpointKind, parse_endpoint
 from vehicles.errors import LinkError
