@@ -30,7 +30,8 @@ from typing import Any, TypeVar
 import numpy as np
 import yaml
 
-from planner.grid import Cell
+from core.cells import Cell
+from core.geo import GeoFrame
 from sitl_mock.gridmap import GridMap
 from sitl_mock.maps import (
     FREE_CHAR,
@@ -42,7 +43,6 @@ from sitl_mock.maps import (
     make_map,
     reachable_mask,
 )
-from vehicles.geo import GeoFrame
 from vehicles.printable import is_printable
 
 MAX_SYSID = 255

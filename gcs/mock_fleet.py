@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+from core.clocks import Clock
 from gcs.mission import Charging, Mission, Sensing, VehicleSpec
 from sitl_mock.battery import BatterySag, BatterySettings
 from sitl_mock.connection import mirror
@@ -19,7 +20,6 @@ from sitl_mock.faults import LinkCut, LinkFaults, VehicleFaults
 from sitl_mock.fleet import MockFleet, MockVehicleConfig
 from sitl_mock.modes import VehicleKind
 from sitl_mock.vehicle import VehicleSettings
-from vehicles.clock import Clock
 from vehicles.keyfile import KeyFile
 
 TCP_PORT_STEP = 10

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.cells import CellState
 from gcs.mission import Mission
-from planner.grid import CellState
 from planner.settings import PathPlannerKind, PlannerSettings
 
 

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.cells import Cell
 from gcs.mission import Mission
-from planner.grid import Cell
 
 
 @dataclass(frozen=True)

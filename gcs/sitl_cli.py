@@ -22,6 +22,7 @@ import signal
 import sys
 from collections.abc import Sequence
 
+from core.clocks import ScaledClock
 from gcs.commands.keys import load_keys
 from gcs.errors import EXIT_BAD_INPUT, EXIT_OK, UsageError
 from gcs.mission import Mission, MissionError, load_mission
@@ -29,7 +30,6 @@ from gcs.mock_fleet import FLEET_GCS_FAILSAFE, STARTUP_DELAY_S, TCP_PORT_STEP, m
 from sitl_mock.connection import ConnectionStringError, parse_mock_side
 from sitl_mock.failsafe import FailsafeAction, GcsFailsafe
 from sitl_mock.fleet import MockFleet, MockVehicleConfig
-from vehicles.clock import ScaledClock
 
 PROG = "sitl-mock"
 

@@ -25,9 +25,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from types import ModuleType
 
-#: The planner's modules on every agent-step's path, compiled by an install.
+#: The planner's modules on every agent-step's path (with ``core.cells``, the cells and
+#: directions they use), compiled by an install.
 #: Modules that hold numba kernels stay Python: numba reads their bytecode.
 COMPILED = (
+    "core.cells",
     "planner.grid",
     "planner.belief",
     "planner.btp",

@@ -24,6 +24,8 @@ import math
 from dataclasses import dataclass
 from enum import StrEnum
 
+from core.geo import bearing_deg, wrap_deg
+
 #: Below this a rover counts as standing still (m/s).
 STOPPED_M_S = 0.05
 #: A pivot ends within this many degrees of the wanted heading (AR_PIVOT_ANGLE_ACCURACY).
@@ -108,15 +110,6 @@ class Leg:
     def past_finish_line(self, north: float, east: float) -> bool:
         (n0, e0), (n1, e1) = self.origin, self.destination
         return (north - n1) * (n1 - n0) + (east - e1) * (e1 - e0) > 0.0
-
-
-def _wrap_deg(angle: float) -> float:
-    """``angle`` in (-180, 180]."""
-    return (angle + 180.0) % 360.0 - 180.0
-
-
-def bearing_deg(d_north: float, d_east: float) -> float:
-    return math.degrees(math.atan2(d_east, d_north)) % 360.0
 
 
 class Drive:
@@ -205,7 +198,7 @@ class Drive:
         if gap < CLOSE_M:
             pn, pe = leg.destination
         far = math.hypot(pn - north, pe - east) >= 0.02
-        error = _wrap_deg(bearing_deg(pn - north, pe - east) - heading_deg) if far else 0.0
+        error = wrap_deg(bearing_deg(pn - north, pe - east) - heading_deg) if far else 0.0
         to_go = math.dist((north, east), leg.destination)
         heading_deg, wanted_speed = self._steer(heading_deg, error, wanted_speed, to_go, dt_s)
         self._throttle(wanted_speed, dt_s)

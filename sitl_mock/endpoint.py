@@ -24,6 +24,7 @@ from typing import Any, TypeAlias
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from core.clocks import Clock
 from sitl_mock import commands, parameters, telemetry
 from sitl_mock.connection import Endpoint, parse_mock_side
 from sitl_mock.events import (
@@ -44,7 +45,6 @@ from sitl_mock.mission_server import MissionProtocolSettings, MissionServer
 from sitl_mock.signing import StreamTimestamps, enable_signing
 from sitl_mock.transport import Peer, Transport, make_transport
 from sitl_mock.vehicle import CommandRefused, Vehicle
-from vehicles.clock import Clock
 from vehicles.transport import reset_parser
 
 log = logging.getLogger(__name__)

@@ -25,6 +25,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from types import TracebackType
 
+from core.clocks import Clock, ScaledClock
+from core.geo import GeoFrame
 from sitl_mock.battery import BatterySettings
 from sitl_mock.connection import LinkKind
 from sitl_mock.endpoint import LinkSettings, VehicleEndpoint
@@ -34,8 +36,6 @@ from sitl_mock.radio import Radio
 from sitl_mock.transport import Transport, make_transport
 from sitl_mock.vehicle import Vehicle, VehicleSettings
 from sitl_mock.world import World
-from vehicles.clock import Clock, ScaledClock
-from vehicles.geo import GeoFrame
 
 log = logging.getLogger(__name__)
 

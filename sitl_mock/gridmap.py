@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planner.grid import Cell
+from core.cells import Cell
 
 
 @dataclass(frozen=True)

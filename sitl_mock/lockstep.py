@@ -14,7 +14,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from planner.grid import NEIGHBOURS, Cell, CellState, Direction
+from core.cells import NEIGHBOURS, Cell, CellState, Direction, manhattan
 from sitl_mock.gridmap import GridMap
 
 
@@ -80,7 +80,7 @@ class LockstepWorld:
         if agent in self.dead:
             raise WorldError(f"agent {agent} is dead and cannot move")
         here = self.position[agent]
-        if abs(here[0] - to[0]) + abs(here[1] - to[1]) != 1:
+        if manhattan(here, to) != 1:
             raise WorldError(f"agent {agent}: {here} -> {to} is not a move to a neighbour")
         # A neighbour of a cell on the map is on the map or on its border (not free).
         if not self._free[(to[0] + 1) * self._stride + to[1] + 1]:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planner.grid import Cell, Direction
+from core.cells import Cell, Direction
 from sitl_mock.gridmap import GridMap
 from sitl_mock.maps import make_map, reachable_mask
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, UnidentifiedImageError
 
-from planner.grid import Cell
+from core.cells import Cell
 from sitl_mock.gridmap import GridMap
 
 OBSTACLE_CHAR = "#"

@@ -4,17 +4,16 @@
   keeps one for all its channels): a signed frame captured on one connection
   and replayed on another is as old there as it was on the first.
 * The signature is checked before its timestamp is believed, by the station's
-  own check (``vehicles.signing.check_signature``, which says why).
+  own check (``vehicles.signing.check_signature``, which says why), set up by the
+  station's own ``vehicles.signing.sign_with``.
 * Only radio status may come unsigned.
 """
 
 from __future__ import annotations
 
-import functools
-
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from vehicles.signing import check_signature, signing_timestamp
+from vehicles.signing import sign_with
 
 #: (link id, system id, component id) -> last accepted timestamp.
 StreamTimestamps = dict[tuple[int, int, int], int]
@@ -22,13 +21,8 @@ StreamTimestamps = dict[tuple[int, int, int], int]
 
 def enable_signing(codec: mavlink.MAVLink, key: bytes, streams: StreamTimestamps) -> None:
     """Make ``codec`` sign what it sends and accept only frames signed with ``key``."""
-    codec.signing.secret_key = key
-    codec.signing.sign_outgoing = True
-    codec.signing.timestamp = max(codec.signing.timestamp, signing_timestamp())
-    codec.signing.allow_unsigned_callback = _allow_unsigned
+    sign_with(codec, key, _allow_unsigned)
     codec.signing.stream_timestamps = streams
-    # pymavlink calls ``self.check_signature(...)``: an instance attribute replaces it.
-    codec.check_signature = functools.partial(check_signature, codec)  # type: ignore[method-assign]
 
 
 def _allow_unsigned(codec: mavlink.MAVLink, message_id: int) -> bool:

@@ -25,7 +25,8 @@ from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from planner.grid import Cell
+from core.cells import Cell
+from core.geo import bearing_deg
 from sitl_mock.battery import Battery, BatterySettings, ChargeState
 from sitl_mock.drive import Drive, DriveSettings
 from sitl_mock.events import (
@@ -709,7 +710,7 @@ class Vehicle:
         dist = math.hypot(dn, de)
         moved = 0.0
         if dist > _EPS_M and budget_m > _EPS_M:
-            self.heading_deg = math.degrees(math.atan2(de, dn)) % 360.0
+            self.heading_deg = bearing_deg(dn, de)
             moved = self._advance(self.heading_deg, min(budget_m, dist), dt_s)
         if math.hypot(goal.north_m - self.north_m, goal.east_m - self.east_m) <= _EPS_M:
             self.north_m, self.east_m = goal.north_m, goal.east_m

@@ -10,10 +10,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import Enum
 
-from planner.grid import Cell
+from core.cells import Cell
+from core.geo import GeoFrame
 from sitl_mock.gridmap import GridMap
 from sitl_mock.ranging import ray_distance_m
-from vehicles.geo import GeoFrame
 
 
 class BlockReason(Enum):

@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from core.cells import Cell, manhattan
 from gcs.log.mcap_log import LogSettings, LogSink, McapMissionLog
 from gcs.mission import (
     Mission,
@@ -23,7 +24,6 @@ from gcs.mission import (
 from gcs.outcome.result import RunResult
 from gcs.preflight import charger_distances
 from planner.coordinator import EventKind, PlannerEvent
-from planner.grid import Cell, manhattan
 from sitl_mock.gridmap import GridMap
 
 

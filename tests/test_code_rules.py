@@ -4,6 +4,7 @@ package of the product."""
 
 from __future__ import annotations
 
+import ast
 import subprocess
 import sys
 from pathlib import Path
@@ -11,7 +12,14 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("planner", "vehicles", "sitl_mock", "gcs")
+PACKAGES = ("core", "planner", "vehicles", "sitl_mock", "gcs")
+#: What each package may not import: the layers, bottom (``core``) to top (``gcs``).
+FORBIDDEN = {
+    "core": ("planner", "vehicles", "sitl_mock", "gcs"),
+    "planner": ("vehicles", "sitl_mock", "gcs"),
+    "vehicles": ("planner", "sitl_mock", "gcs"),
+    "sitl_mock": ("planner", "gcs"),
+}
 
 pytestmark = pytest.mark.timeout(300)
 
@@ -42,15 +50,28 @@ def test_mypy_finds_nothing_in_the_packages(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stdout + done.stderr
 
 
-def test_the_vehicle_layer_knows_nothing_of_the_planner() -> None:
-    """``vehicles`` (how we talk to a vehicle) imports nothing from ``planner``."""
+def _imported(path: Path) -> set[str]:
+    """The top-level packages ``path`` imports, at any depth of its code."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(alias.name.split(".")[0] for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module.split(".")[0])
+    return names
+
+
+@pytest.mark.parametrize("package", sorted(FORBIDDEN))
+def test_imports_flow_down_the_layers(package: str) -> None:
+    """``core`` imports none of the others; ``planner`` (pure) and ``vehicles`` (how we
+    talk to a vehicle) know nothing of each other, of the mock or of the station; the
+    mock fleet uses ``vehicles``' MAVLink helpers but not the planner; nothing imports
+    ``gcs``."""
     offenders = [
-        str(path.relative_to(ROOT))
-        for path in sorted((ROOT / "vehicles").glob("*.py"))
-        if any(
-            line.startswith(("from planner", "import planner"))
-            for line in path.read_text(encoding="utf-8").splitlines()
-        )
+        f"{path.relative_to(ROOT)}: {name}"
+        for path in sorted((ROOT / package).rglob("*.py"))
+        for name in sorted(_imported(path) & set(FORBIDDEN[package]))
     ]
     assert offenders == []
 

@@ -23,6 +23,7 @@ from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from rich.console import Console
 
+from core.clocks import ScaledClock
 from gcs.cli import main
 from gcs.live.display import LiveDisplay
 from gcs.live.pilot import Pilot
@@ -41,7 +42,6 @@ from tests.test_link_fake import FakeOptions, FakeVehicle
 from tests.test_link_vs_mock import BODY_S, SPEEDUP, UDP, linked
 from tests.test_link_vs_mock import mission as mission
 from tests.test_live_mission import SMALL, write_mission
-from vehicles.clock import ScaledClock
 from vehicles.endpoints import free_loopback_udp_ports
 from vehicles.errors import LinkError, MissionError, MissionTimeout
 from vehicles.fence import inclusion_fence

@@ -19,10 +19,10 @@ from mcap.reader import make_reader
 from websockets.asyncio.client import ClientConnection, connect
 from websockets.typing import Subprotocol
 
+from core.cells import CellState
 from gcs.log.foxglove_live import LiveView
 from gcs.log.mission_log import GeoFix
 from gcs.log.topics import SCHEMAS
-from planner.grid import CellState
 from tests.checks import open_mission_log
 from tests.test_live_mission import SMALL, write_mission
 from tests.test_mcap_log import _mission

@@ -31,6 +31,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from core.clocks import ScaledClock
+from core.geo import GeoFrame
 from gcs.mission import (
     _DEFAULT_KEYS,
     _FLEET_KEYS,
@@ -49,9 +51,7 @@ from sitl_mock.gridmap import GridMap
 from sitl_mock.modes import VehicleKind
 from sitl_mock.vehicle import VehicleSettings
 from tests import frames
-from vehicles.clock import ScaledClock
 from vehicles.endpoints import parse_endpoint
-from vehicles.geo import GeoFrame
 from vehicles.link import VehicleLink
 from vehicles.transport import MavlinkTransport
 

@@ -33,6 +33,8 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from rich.console import Console
 
+from core.clocks import ScaledClock
+from core.geo import GeoFrame
 from gcs.live.display import LiveDisplay
 from gcs.live.run import LiveRun
 from gcs.mission import load_mission
@@ -45,9 +47,7 @@ from sitl_mock.vehicle import VehicleSettings
 from tests import frames
 from tests.test_live_mission import SMALL, assert_log_rebuilds_the_report, report, run_sim
 from tests.test_live_mission import write_mission as write_live_mission
-from vehicles.clock import ScaledClock
 from vehicles.endpoints import free_loopback_udp_ports, parse_endpoint
-from vehicles.geo import GeoFrame
 from vehicles.link import RejectedFrames, VehicleLink
 from vehicles.telemetry import Topic
 from vehicles.transport import MavlinkTransport

@@ -18,12 +18,12 @@ from pathlib import Path
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from core.clocks import ScaledClock
 from gcs.mission import Mission, load_mission
 from gcs.mock_fleet import mock_fleet_configs
 from sitl_mock.fleet import MockFleet, MockVehicleConfig
 from sitl_mock.modes import RoverMode
 from tests.serial_cable import SerialCable
-from vehicles.clock import ScaledClock
 from vehicles.commands import CommandSettings
 from vehicles.endpoints import free_loopback_udp_ports
 from vehicles.errors import LinkError

@@ -25,15 +25,15 @@ from typing import Any
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from core.cells import Cell
+from core.clocks import ScaledClock
 from gcs.mission import Mission, load_mission
 from gcs.mock_fleet import mock_fleet_configs
-from planner.grid import Cell
 from sitl_mock.endpoint import VehicleEndpoint
 from sitl_mock.faults import LinkFaults, MissionFailure, MissionFaults, VehicleFaults
 from sitl_mock.fleet import MockFleet, MockVehicleConfig
 from sitl_mock.mission_server import MissionProtocolSettings
 from sitl_mock.vehicle import Vehicle
-from vehicles.clock import ScaledClock
 from vehicles.commands import CommandSettings
 from vehicles.errors import CommandTimeout, HeartbeatTimeout, MissionError
 from vehicles.link import LinkSettings, VehicleLink

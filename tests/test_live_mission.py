@@ -20,15 +20,15 @@ import pytest
 from mcap.reader import make_reader
 from scipy import ndimage
 
+from core.cells import CellState
+from core.clocks import ScaledClock
 from gcs.cli import main
 from gcs.log.reader import read_log
 from gcs.mission import load_mission
 from gcs.mock_fleet import mock_fleet_configs
-from planner.grid import CellState
 from sitl_mock.events import StatusText
 from sitl_mock.fleet import MockFleet
 from sitl_mock.maps import parse_ascii
-from vehicles.clock import ScaledClock
 from vehicles.endpoints import free_loopback_udp_ports
 
 pytestmark = pytest.mark.timeout(90)

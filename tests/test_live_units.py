@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from core.cells import CellState, Direction
 from gcs.live.energy import EnergyEstimator, EnergySettings, model_prior
 from gcs.live.sensing import (
     Pose,
@@ -21,7 +22,6 @@ from gcs.live.sensing import (
     readings_from_map,
     still_between,
 )
-from planner.grid import CellState, Direction
 from sitl_mock.maps import make_map
 from sitl_mock.ranging import sector_distances_m
 from vehicles.modes import VehicleKind

@@ -18,6 +18,8 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from core.clocks import ScaledClock
+from core.geo import GeoFrame
 from sitl_mock.battery import BatterySettings
 from sitl_mock.endpoint import LinkSettings
 from sitl_mock.faults import (
@@ -32,8 +34,6 @@ from sitl_mock.gridmap import GridMap
 from sitl_mock.mission_server import MissionProtocolSettings, MissionRequestStyle
 from sitl_mock.modes import CopterMode, RoverMode, VehicleKind
 from sitl_mock.vehicle import VehicleSettings
-from vehicles.clock import ScaledClock
-from vehicles.geo import GeoFrame
 from vehicles.mission_items import MissionItem
 
 pytestmark = pytest.mark.timeout(60)

@@ -25,10 +25,12 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from core.cells import Cell
+from core.clocks import ManualClock, ScaledClock
+from core.geo import GeoFrame
 from gcs.mission import Mission, load_mission
 from gcs.mock_fleet import FLEET_GCS_FAILSAFE, mock_fleet_configs
 from gcs.sitl_cli import _prepare, build_parser, main
-from planner.grid import Cell
 from sitl_mock.battery import BatterySettings
 from sitl_mock.endpoint import LinkSettings as MockLinkSettings
 from sitl_mock.endpoint import VehicleEndpoint
@@ -39,8 +41,6 @@ from sitl_mock.gridmap import GridMap
 from sitl_mock.modes import CopterMode, RoverMode, VehicleKind
 from sitl_mock.vehicle import Vehicle, VehicleSettings
 from sitl_mock.world import World
-from vehicles.clock import ManualClock, ScaledClock
-from vehicles.geo import GeoFrame
 from vehicles.link import LinkSettings, VehicleLink
 from vehicles.mission_items import MissionItem
 from vehicles.modes import FlightMode

@@ -26,13 +26,13 @@ from mavsdk.component_type import ComponentType
 from mavsdk.plugins.mission_raw import MissionItem as SdkItem
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from core.clocks import ScaledClock
+from core.geo import GeoFrame
 from sitl_mock.endpoint import LinkSettings
 from sitl_mock.fleet import MockFleet, MockVehicleConfig
 from sitl_mock.gridmap import GridMap
 from sitl_mock.modes import RoverMode, VehicleKind
 from sitl_mock.vehicle import VehicleSettings
-from vehicles.clock import ScaledClock
-from vehicles.geo import GeoFrame
 
 pytestmark = pytest.mark.timeout(60)
 

@@ -15,7 +15,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from planner.grid import Cell
+from core.cells import Cell
+from core.geo import GeoFrame
 from sitl_mock.battery import Battery, BatterySag, BatterySettings, ChargeState
 from sitl_mock.connection import ConnectionStringError, mirror, parse_mock_side
 from sitl_mock.events import ItemReached, StatusText, VehicleDied, VehicleEvent
@@ -24,7 +25,6 @@ from sitl_mock.modes import CopterMode, RoverMode, VehicleKind
 from sitl_mock.ranging import ray_distance_m
 from sitl_mock.vehicle import CommandRefused, Vehicle, VehicleSettings
 from sitl_mock.world import World
-from vehicles.geo import GeoFrame
 from vehicles.mission_items import MissionItem
 
 pytestmark = pytest.mark.timeout(30)

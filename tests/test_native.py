@@ -17,26 +17,29 @@ from planner import native
 from planner.coordinator import Action, ActionKind
 
 SUFFIX = importlib.machinery.EXTENSION_SUFFIXES[0]
+#: The packages whose modules ``native.COMPILED`` may list.
+PACKAGES = ("planner", "core")
 
 
 def _planner_copy(root: Path) -> Path:
-    """The planner's sources under ``root``, each compiled module with an extension
+    """The planner's sources (and ``core``'s) under ``root``, each compiled module with an extension
     file beside it that cannot load (so only the sources can run), and a record
     of the sources as they are."""
-    shutil.copytree(
-        native.HERE,
-        root / "planner",
-        ignore=shutil.ignore_patterns("*.so", "*.json", "__pycache__"),
-    )
+    for package in PACKAGES:
+        shutil.copytree(
+            native.HERE.parent / package,
+            root / package,
+            ignore=shutil.ignore_patterns("*.so", "*.json", "__pycache__"),
+        )
     for module in native.COMPILED:
         native.source_of(module, root).with_suffix(SUFFIX).write_bytes(b"not a library")
     (root / "planner" / native.RECORD).write_text(json.dumps(native.record(root)))
     return root
 
 
-def test_every_compiled_module_is_a_planner_source() -> None:
+def test_every_compiled_module_is_a_planner_or_core_source() -> None:
     for module in native.COMPILED:
-        assert module.startswith("planner.")
+        assert module.split(".")[0] in PACKAGES
         assert native.source_of(module).is_file()
 
 

@@ -17,13 +17,13 @@ from typing import Any
 
 import pytest
 
+from core.cells import Cell
+from core.clocks import ScaledClock
 from gcs.live.pilot import MoveFailed, Pilot
 from gcs.mission import Mission
-from planner.grid import Cell
 from sitl_mock.drive import DriveSettings, Steering
 from sitl_mock.modes import Behaviour
 from tests.test_link_vs_mock import BODY_S, SPEEDUP, UDP, Pair, linked, mission  # noqa: F401
-from vehicles.clock import ScaledClock
 from vehicles.modes import VehicleKind
 
 pytestmark = pytest.mark.timeout(40)

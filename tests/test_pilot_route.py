@@ -10,12 +10,12 @@ import asyncio
 
 import pytest
 
+from core.cells import Cell
+from core.clocks import ScaledClock
 from gcs.live.pilot import Pilot
 from gcs.mission import Mission
-from planner.grid import Cell
 from sitl_mock.modes import Behaviour
 from tests.test_link_vs_mock import BODY_S, SPEEDUP, UDP, linked, mission  # noqa: F401
-from vehicles.clock import ScaledClock
 from vehicles.modes import VehicleKind
 from vehicles.telemetry import Position
 

@@ -17,6 +17,7 @@ from matplotlib.figure import Figure
 from PIL import Image
 from rich.console import Console
 
+from core.cells import Cell, CellState
 from gcs.log.reader import LogContents, VehicleState, read_contents, read_log
 from gcs.offline.simulate import simulate
 from gcs.outcome.figures import (
@@ -33,7 +34,6 @@ from gcs.outcome.figures import (
 )
 from gcs.outcome.report import print_summary, report_dict, summary_rows, write_report
 from gcs.outcome.result import AgentTrace, BtpRecord, RunResult
-from planner.grid import Cell, CellState
 from sitl_mock import mapgen
 from tests.checks import make_mission, open_mission_log
 

@@ -18,12 +18,12 @@ from typing import Any
 import numpy as np
 import pytest
 
+from core.cells import Cell
 from gcs.bench.faults import log_loss_s, stop
 from gcs.live.resume import ResumeError, ResumePoint, load_resume_point, resumed_text
 from gcs.log.reader import read_contents
 from gcs.mission import load_mission
 from planner.coordinator import ActionKind, Coordinator
-from planner.grid import Cell
 from planner.settings import AgentSpec, PlannerSettings
 from sitl_mock.gridmap import GridMap
 from sitl_mock.lockstep import Body, LockstepWorld

@@ -24,13 +24,13 @@ import pytest
 from mcap.reader import make_reader
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from core.clocks import ScaledClock
 from gcs.cli import main
 from gcs.mission import load_mission
 from gcs.mock_fleet import mock_fleet_configs
 from gcs.sitl_cli import main as sitl_main
 from sitl_mock.fleet import MockFleet
 from sitl_mock.modes import RoverMode
-from vehicles.clock import ScaledClock
 from vehicles.commands import CommandSettings
 from vehicles.endpoints import free_loopback_udp_ports
 from vehicles.keyfile import KeyFile, KeyFileError, load_key_file, loose_permissions

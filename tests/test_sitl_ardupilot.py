@@ -36,7 +36,7 @@ from pathlib import Path
 import pytest
 from pymavlink import mavutil
 
-from vehicles.geo import GeoFrame
+from core.geo import GeoFrame
 
 SITL_ENV = "ARDUPILOT_SITL"
 SITL_DIR = os.environ.get(SITL_ENV)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -71,11 +72,22 @@ def apply_signing(codec: mavlink.MAVLink, config: SigningConfig | None) -> None:
         codec.signing.sign_outgoing = False
         codec.signing.allow_unsigned_callback = None
         return
-    codec.signing.secret_key = config.key
     codec.signing.link_id = config.link_id
+    sign_with(codec, config.key, None if config.require_signed else _accept_unsigned)
+
+
+def sign_with(
+    codec: mavlink.MAVLink,
+    key: bytes,
+    allow_unsigned: Callable[[mavlink.MAVLink, int], bool] | None,
+) -> None:
+    """Make ``codec`` sign what it sends with ``key`` and check what it receives with
+    ``check_signature``; ``allow_unsigned`` says which unsigned messages pass (none when
+    ``None``). The station's links and the mock vehicles both start signing here."""
+    codec.signing.secret_key = key
     codec.signing.sign_outgoing = True
     codec.signing.timestamp = max(codec.signing.timestamp, signing_timestamp())
-    codec.signing.allow_unsigned_callback = None if config.require_signed else _accept_unsigned
+    codec.signing.allow_unsigned_callback = allow_unsigned
     # pymavlink calls ``self.check_signature(...)``: an instance attribute replaces it.
     codec.check_signature = functools.partial(check_signature, codec)  # type: ignore[method-assign]
 

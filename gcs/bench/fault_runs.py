@@ -15,6 +15,7 @@ from multiprocessing.connection import Connection
 from multiprocessing.process import BaseProcess
 from pathlib import Path
 
+from core.clocks import ScaledClock
 from gcs.errors import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK
 from gcs.live.agent import AgentSettings
 from gcs.live.mission import run_live
@@ -27,7 +28,6 @@ from gcs.mock_fleet import STARTUP_DELAY_S, MockFleetRehearsal, SimFaults, mock_
 from gcs.options.run import LOST_AFTER_S
 from gcs.outcome.report import write_report
 from sitl_mock.fleet import MockFleet
-from vehicles.clock import ScaledClock
 
 #: The station's log in its folder, as ``gcs run --out`` names it.
 LOG_NAME = "mission.mcap"

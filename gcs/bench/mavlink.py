@@ -27,6 +27,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from rich.console import Console
 from rich.table import Table
 
+from core.clocks import ScaledClock
 from gcs.bench.common import write_json
 from gcs.errors import EXIT_OK, UsageError
 from gcs.mission import MAX_SYSID, Mission, MissionError, load_mission
@@ -43,7 +44,6 @@ from sitl_mock import telemetry
 from sitl_mock.faults import LinkFaults, VehicleFaults
 from sitl_mock.fleet import MockFleet
 from sitl_mock.mission_server import MissionProtocolSettings
-from vehicles.clock import ScaledClock
 from vehicles.errors import LinkError
 from vehicles.link import LinkSettings, VehicleLink
 from vehicles.mission_items import MissionItem, same_items

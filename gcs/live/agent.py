@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from core.cells import Cell, CellState, Direction, manhattan
 from gcs.live.charging import ChargeSettings, PadStay
 from gcs.live.energy import EnergyEstimator
 from gcs.live.pilot import Pilot, PilotSettings
@@ -52,7 +53,6 @@ from gcs.live.shared import Level, Phase, SharedPlanner, VehicleView
 from gcs.log.mission_log import GeoFix
 from gcs.mission import Sensing, VehicleSpec
 from planner.coordinator import Action, ActionKind, AgentMode
-from planner.grid import Cell, CellState, Direction, manhattan
 from planner.paths import path_to_charger
 from sitl_mock.gridmap import GridMap
 from vehicles.errors import LinkError, MissionError

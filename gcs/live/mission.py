@@ -37,6 +37,7 @@ from typing import TypeVar
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from core.clocks import Clock, ScaledClock
 from gcs.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED
 from gcs.live.flight import fly
 from gcs.live.pilot import Pilot
@@ -47,7 +48,6 @@ from gcs.log.mission_log import MissionLog
 from gcs.mission import Mission, Steering, VehicleSpec
 from gcs.outcome.result import RunResult
 from gcs.warm_up import warm_up_planner
-from vehicles.clock import Clock, ScaledClock
 from vehicles.commands import CommandSettings
 from vehicles.endpoints import Endpoint, EndpointKind, parse_endpoint
 from vehicles.errors import LinkError

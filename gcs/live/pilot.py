@@ -24,9 +24,10 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from core.cells import Cell
+from core.clocks import Clock
+from core.geo import GeoFrame, bearing_deg, wrap_deg
 from gcs.live.sensing import SECTOR_ORIENTATIONS, Pose
-from planner.grid import Cell
-from vehicles.clock import Clock
 from vehicles.driving import (
     SPEED_UP_AND_STOP_S,
     DrivingLimits,
@@ -34,7 +35,6 @@ from vehicles.driving import (
 )
 from vehicles.errors import CommandDenied, CommandError, LinkError, MissionTimeout
 from vehicles.fence import FENCE, inclusion_fence, same_fence
-from vehicles.geo import GeoFrame
 from vehicles.link import VehicleLink
 from vehicles.mission_items import MissionItem, same_items
 from vehicles.modes import FlightMode, VehicleKind
@@ -364,8 +364,7 @@ class Pilot:
         n1, e1 = self.geo.geo_to_local(lat, lon)
         if math.hypot(n1 - n0, e1 - e0) < 1e-3:
             return 0.0
-        bearing = math.degrees(math.atan2(e1 - e0, n1 - n0))
-        return abs((bearing - pos.heading_deg + 180.0) % 360.0 - 180.0)
+        return abs(wrap_deg(bearing_deg(n1 - n0, e1 - e0) - pos.heading_deg))
 
     async def goto(self, cell: Cell, within_m: float | None = None) -> Position:
         """Drive or fly to ``cell`` in GUIDED; the position once there: inside the cell,

@@ -10,12 +10,12 @@ import contextlib
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from core.cells import Cell
 from gcs.errors import EXIT_BAD_INPUT
 from gcs.live.pilot import Pilot
 from gcs.live.run import LiveOptions, MissionRefused
 from gcs.live.shared import Phase, VehicleView
 from gcs.mission import Mission, Sensing, VehicleSpec
-from planner.grid import Cell
 from vehicles.errors import LinkError
 from vehicles.link import VehicleLink
 from vehicles.modes import FlightMode

@@ -14,9 +14,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from core.cells import Cell, manhattan
 from gcs.outcome.result import AgentTrace, BtpLog, RunResult
 from planner.coordinator import Coordinator, EventKind, PlannerEvent
-from planner.grid import Cell, manhattan
 
 
 @dataclass

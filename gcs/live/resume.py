@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
+from core.cells import Cell
 from gcs.log.reader import LogError, VehicleState, final_map, read_contents
 from gcs.mission import Mission
-from planner.grid import Cell
 
 
 class ResumeError(ValueError):

@@ -7,13 +7,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Protocol
 
+from core.clocks import Clock
 from gcs.errors import EXIT_FAILED
 from gcs.live.agent import AgentSettings
 from gcs.live.energy import EnergySettings
 from gcs.live.resume import ResumePoint
 from gcs.live.shared import SharedPlanner, VehicleView
 from gcs.mission import Mission
-from vehicles.clock import Clock
 from vehicles.keyfile import KeyFile
 from vehicles.link import RejectedFrames, VehicleLink, rejected_frames
 from vehicles.network import MavlinkNetwork

@@ -29,7 +29,8 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
-from planner.grid import Cell, CellState, Direction
+from core.cells import Cell, CellState, Direction
+from core.geo import wrap_deg
 from sitl_mock.gridmap import GridMap
 from vehicles.telemetry import ObstacleDistances, RangeReading
 
@@ -91,7 +92,7 @@ STILL_HEADING_DEG = 2.0
 
 def still_between(before: Pose, after: Pose) -> bool:
     """Whether the vehicle held its heading between two poses."""
-    return abs(_turn_deg(before.heading_deg, after.heading_deg)) <= STILL_HEADING_DEG
+    return abs(wrap_deg(after.heading_deg - before.heading_deg)) <= STILL_HEADING_DEG
 
 
 def pose_at(before: Pose, after: Pose, time_ms: int) -> Pose:
@@ -99,17 +100,13 @@ def pose_at(before: Pose, after: Pose, time_ms: int) -> Pose:
     to them)."""
     span = after.time_ms - before.time_ms
     f = 0.0 if span <= 0 else min(1.0, max(0.0, (time_ms - before.time_ms) / span))
-    turn = _turn_deg(before.heading_deg, after.heading_deg)
+    turn = wrap_deg(after.heading_deg - before.heading_deg)
     return Pose(
         before.north_m + f * (after.north_m - before.north_m),
         before.east_m + f * (after.east_m - before.east_m),
         (before.heading_deg + f * turn) % 360.0,
         time_ms,
     )
-
-
-def _turn_deg(start: float, end: float) -> float:
-    return (end - start + 180.0) % 360.0 - 180.0
 
 
 def rays_from_sensors(

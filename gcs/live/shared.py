@@ -24,6 +24,8 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any, TypeVar
 
+from core.cells import Cell, CellState, Direction
+from core.clocks import Clock
 from gcs.live.record import MissionRecord
 from gcs.log.mission_log import GeoFix, MissionLog
 from planner.coordinator import (
@@ -35,8 +37,6 @@ from planner.coordinator import (
     EventKind,
     PlannerEvent,
 )
-from planner.grid import Cell, CellState, Direction
-from vehicles.clock import Clock
 
 _T = TypeVar("_T")
 

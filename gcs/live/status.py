@@ -12,11 +12,11 @@ import logging
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from core.cells import Cell
 from gcs.live.shared import Phase, SharedPlanner, VehicleView
 from gcs.log.mission_log import WAY_CELLS, MissionLog, MissionProgress, VehicleStatus
 from planner.belief import UNREACHED
 from planner.coordinator import AgentMode
-from planner.grid import Cell
 
 if TYPE_CHECKING:
     from gcs.live.run import LiveRun

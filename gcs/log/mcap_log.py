@@ -22,7 +22,7 @@ Time: every message's ``log_time`` (and ``publish_time``, and the ``timestamp``
 inside the Foxglove messages) is UTC: the wall clock at mission time 0 (the
 mission's start, ``start``) plus the mission seconds of the message. Mission
 time, not the wall clock at the moment of writing, because the mission clock is
-injected and runs faster than real time under a speed-up (``vehicles.clock``):
+injected and runs faster than real time under a speed-up (``core.clocks``):
 stamped on the wall clock, a simulated run's log would squeeze ten minutes of
 battery drain into one and put events in the order the event loop happened to
 write them, while stamped on mission time a log reads the same, in vehicle
@@ -53,6 +53,8 @@ from typing import IO, Any, Protocol
 import numpy as np
 from mcap.writer import CompressionType, Writer
 
+from core.cells import Cell, CellState, Direction
+from core.geo import GeoFrame
 from gcs.log.mission_log import GeoFix, MissionProgress, VehicleStatus
 from gcs.log.result_json import result_to_json
 from gcs.log.scenes import (
@@ -88,8 +90,6 @@ from gcs.log.topics import (
 )
 from gcs.mission import Mission
 from gcs.outcome.result import RunResult
-from planner.grid import Cell, CellState, Direction
-from vehicles.geo import GeoFrame
 
 
 def _unix_ns(unix_s: float | None) -> int:

@@ -15,8 +15,8 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
+from core.cells import Cell, CellState, Direction
 from gcs.outcome.result import RunResult
-from planner.grid import Cell, CellState, Direction
 
 
 class GeoFix(NamedTuple):

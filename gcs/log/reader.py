@@ -22,6 +22,7 @@ from mcap.records import Channel, Chunk, Footer, Message, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import MCAP0_MAGIC
 
+from core.cells import Cell, CellState, Direction
 from gcs.log.result_json import result_from_json
 from gcs.log.topics import (
     BTPS_TOPIC,
@@ -36,7 +37,6 @@ from gcs.log.topics import (
 )
 from gcs.outcome.result import AgentTrace, BtpRecord, RunResult
 from planner.coordinator import AgentMode, EventKind
-from planner.grid import Cell, CellState, Direction
 
 #: Modes whose moves count as driving home after coverage, not as coverage path.
 HOMING_MODES = frozenset({AgentMode.HOMING.value, AgentMode.DONE.value})

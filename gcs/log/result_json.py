@@ -7,8 +7,8 @@ from typing import Any
 
 import numpy as np
 
+from core.cells import Cell
 from gcs.outcome.result import AgentTrace, BtpRecord, RunResult
-from planner.grid import Cell
 
 
 def _array_json(array: np.ndarray) -> dict[str, Any]:

@@ -11,9 +11,9 @@ from typing import Any
 
 import numpy as np
 
+from core.cells import Cell
+from core.geo import GeoFrame
 from gcs.log.topics import GRID_RGBA, MAP_FRAME, grid_codes
-from planner.grid import Cell
-from vehicles.geo import GeoFrame
 
 
 def stamp(ns: int) -> dict[str, int]:

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from planner.grid import CellState, Direction
+from core.cells import CellState, Direction
 
 PROFILE = ""
 MAP_FRAME = "map"

@@ -14,12 +14,12 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
+from core.cells import Cell
 from gcs.log.mission_log import MissionLog
 from gcs.mission import Mission
 from gcs.outcome.result import AgentTrace, BtpLog, RunResult
 from gcs.planning import planner_settings, prior_map
 from planner.coordinator import ActionKind, AgentMode, Coordinator, EventKind, PlannerEvent
-from planner.grid import Cell
 from planner.settings import AgentSpec, PlannerSettings
 from sitl_mock.lockstep import Body, LockstepWorld
 

@@ -33,9 +33,10 @@ from matplotlib.patches import Patch
 from matplotlib.ticker import FixedLocator, MaxNLocator
 from numpy.typing import ArrayLike
 
+from core.cells import Cell, CellState
+from core.geo import cell_centre_local
 from gcs.log.reader import LogContents, LogError, VehicleState, read_contents
 from gcs.outcome.result import AgentTrace, RunResult
-from planner.grid import Cell, CellState
 
 COVERAGE_PNG = "coverage.png"
 PATH_LENGTH_PNG = "path_length.png"
@@ -379,8 +380,9 @@ def map_rgb(result: RunResult) -> np.ndarray:
 
 def cell_centre_m(cell: Cell, cell_size_m: float) -> tuple[float, float]:
     """East and north metres of a cell's centre from the map's north-west corner, as
-    :class:`vehicles.geo.GeoFrame` places it (row 0 is the northern edge: north <= 0)."""
-    return (cell[1] + 0.5) * cell_size_m, -(cell[0] + 0.5) * cell_size_m
+    :func:`core.geo.cell_centre_local` places it (row 0 is the northern edge: north <= 0)."""
+    north, east = cell_centre_local(cell, cell_size_m)
+    return east, north
 
 
 def _cells_m(cells: list[Cell] | tuple[Cell, ...], cell_size_m: float) -> np.ndarray:

@@ -6,8 +6,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from core.cells import Cell
 from planner.coordinator import EventKind, PlannerEvent
-from planner.grid import Cell
 
 
 @dataclass(frozen=True)

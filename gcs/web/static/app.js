@@ -8,7 +8,7 @@
 "use strict";
 
 const GRID_UNKNOWN = 0, GRID_FREE = 1, GRID_OBSTACLE = 2, GRID_COVERED = 3;
-const EARTH_RADIUS_M = 6378137.0;  // vehicles/geo.py
+const EARTH_RADIUS_M = 6378137.0;  // core/geo.py
 const COLOURS = ["#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#7f7f7f", "#1f77b4", "#d62728"];
 const LEVELS = {1: "debug", 2: "info", 3: "warning", 4: "error", 5: "fatal"};
 const TASKS = {exploring: "exploring", transit: "to a new area", returning: "to charge", charging: "charging",
