@@ -35,7 +35,7 @@ from gcs.mcap_log import (
     result_from_json,
 )
 from gcs.result import AgentTrace, BtpRecord, RunResult
-from planner.coordinator import AgentMode, EventKind
+from planner.agent import AgentMode, EventKind
 from planner.grid import Cell, CellState, Direction
 
 #: Modes whose moves count as driving home after coverage, not as coverage path.

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from planner.coordinator import EventKind, PlannerEvent
+from planner.agent import EventKind, PlannerEvent
 from planner.grid import Cell
 
 

@@ -19,7 +19,8 @@ import numpy as np
 from gcs.mission import Mission
 from gcs.mission_log import MissionLog
 from gcs.result import AgentTrace, BtpLog, RunResult
-from planner.coordinator import ActionKind, AgentMode, Coordinator, EventKind, PlannerEvent
+from planner.agent import ActionKind, AgentMode, EventKind, PlannerEvent
+from planner.coordinator import Coordinator
 from planner.grid import Cell, CellState
 from planner.settings import AgentSpec, PathPlannerKind, PlannerSettings
 from sitl_mock.lockstep import Body, LockstepWorld

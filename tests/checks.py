@@ -22,7 +22,7 @@ from gcs.mission import (
 )
 from gcs.preflight import charger_distances
 from gcs.result import RunResult
-from planner.coordinator import EventKind, PlannerEvent
+from planner.agent import EventKind, PlannerEvent
 from planner.grid import Cell, manhattan
 from sitl_mock.gridmap import GridMap
 

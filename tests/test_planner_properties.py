@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from gcs.simulate import SimOptions, planner_settings, simulate
-from planner.coordinator import PlannerEvent
+from planner.agent import PlannerEvent
 from planner.grid import NEIGHBOURS
 from planner.settings import BmRule, PathPlannerKind, TargetPolicy
 from sitl_mock import mapgen

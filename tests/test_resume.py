@@ -21,7 +21,8 @@ from gcs.bench.faults import log_loss_s, stop
 from gcs.live.resume import ResumeError, ResumePoint, load_resume_point, resumed_text
 from gcs.log_reader import read_contents
 from gcs.mission import load_mission
-from planner.coordinator import ActionKind, Coordinator
+from planner.agent import ActionKind
+from planner.coordinator import Coordinator
 from planner.grid import Cell
 from planner.settings import AgentSpec, PlannerSettings
 from sitl_mock.gridmap import GridMap

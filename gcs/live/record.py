@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gcs.result import AgentTrace, BtpLog, RunResult
-from planner.coordinator import Coordinator, EventKind, PlannerEvent
+from planner.agent import EventKind, PlannerEvent
+from planner.coordinator import Coordinator
 from planner.grid import Cell, manhattan
 
 

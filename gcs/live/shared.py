@@ -26,15 +26,8 @@ from typing import Any, TypeVar
 
 from gcs.live.record import MissionRecord
 from gcs.mission_log import MissionLog
-from planner.coordinator import (
-    WAIT,
-    Action,
-    ActionKind,
-    AgentMode,
-    Coordinator,
-    EventKind,
-    PlannerEvent,
-)
+from planner.agent import WAIT, Action, ActionKind, AgentMode, EventKind, PlannerEvent
+from planner.coordinator import Coordinator
 from planner.grid import Cell, CellState, Direction
 from vehicles.clock import Clock
 

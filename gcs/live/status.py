@@ -14,8 +14,8 @@ from typing import TYPE_CHECKING
 
 from gcs.live.shared import Phase, SharedPlanner, VehicleView
 from gcs.mission_log import WAY_CELLS, MissionLog, MissionProgress, VehicleStatus
+from planner.agent import AgentMode
 from planner.belief import UNREACHED
-from planner.coordinator import AgentMode
 from planner.grid import Cell
 
 if TYPE_CHECKING:
