@@ -26,7 +26,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from planner import btp
+from planner import btp, known_map
 from planner.agent import (
     AT_REST,
     CHARGE,
@@ -47,7 +47,7 @@ from planner.agent import (
     Fleet,
     PlannerEvent,
 )
-from planner.belief import UNREACHED, MapBelief, with_unknown_side
+from planner.belief import UNREACHED, MapBelief
 from planner.fast_search import HorizonMemo, TargetSearch, Team
 from planner.give_way import GiveWay
 from planner.grid import MOVES, Cell, CellState, Direction
@@ -78,7 +78,7 @@ class Coordinator:
             raise ValueError("agent ids must be unique")
         self.belief = belief = MapBelief(shape, charger)
         if prior is not None:
-            self._load_prior(prior)
+            known_map.load_prior(belief, prior)
         self.stacks = btp.BtpStacks()
         self._team = team = Team(len(agents), charger)
         self._agents: Fleet = {
@@ -271,33 +271,8 @@ class Coordinator:
         restarted from its log): the map it knew (``CellState`` values), the cells it
         covered, and its BTPs, which go to the global pool since their agents' plans
         are gone. Call before the first ``observe``."""
-        if known.shape != self.belief.shape or covered.shape != self.belief.shape:
-            raise ValueError(f"restored map shape {known.shape} != {self.belief.shape}")
-        belief = self.belief
-        known = np.where(covered, int(CellState.FREE), known)
-        self._load_prior(known)
-        # A covered cell was sensed from: an unknown side means that sensing did not
-        # reach the log. Such cells are left to cover again, so that someone senses there.
-        for r, c in zip(*np.nonzero(covered & ~with_unknown_side(known)), strict=True):
-            belief.cover((int(r), int(c)), btp.BtpStacks.POOL)
-        for cell in btps:
-            if belief.inside(cell) and belief.index(cell) in belief.uncovered:
-                self.stacks.push(btp.BtpStacks.POOL, belief.index(cell))
+        known_map.restore(self.belief, self.stacks, known, covered, btps)
         self._alive.forget_costs()
-
-    def _load_prior(self, prior: np.ndarray) -> None:
-        if prior.shape != self.belief.shape:
-            raise ValueError(f"prior map shape {prior.shape} != {self.belief.shape}")
-        belief = self.belief
-        for r, c in zip(*np.nonzero(prior == CellState.OBSTACLE), strict=True):
-            belief.state[belief.index((int(r), int(c)))] = int(CellState.OBSTACLE)
-        cr, cc = belief.charger
-        free = sorted(
-            ((int(r), int(c)) for r, c in zip(*np.nonzero(prior == CellState.FREE), strict=True)),
-            key=lambda cell: abs(cell[0] - cr) + abs(cell[1] - cc),
-        )
-        for cell in free:  # nearest first keeps the incremental distance update cheap
-            belief.mark_free(belief.index(cell))
 
     # -- the decision (Algorithm 4) -------------------------------------------
 

@@ -38,6 +38,7 @@ COMPILED = (
     "planner.give_way",
     "planner.sweep",
     "planner.targets",
+    "planner.known_map",
     "planner.coordinator",
 )
 #: What the build records beside the modules: {module: sha256 of its source}.
