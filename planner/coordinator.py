@@ -80,7 +80,7 @@ class Coordinator:
         if prior is not None:
             known_map.load_prior(belief, prior)
         self.stacks = btp.BtpStacks()
-        self._team = team = Team(len(agents), charger)
+        team = Team(len(agents), charger)
         self._agents: Fleet = {
             a.id: AgentRecord(a, belief.charger_index, team, slot, HorizonMemo(team, slot))
             for slot, a in enumerate(agents)
@@ -97,22 +97,32 @@ class Coordinator:
     def _wire(self, belief: MapBelief, settings: PlannerSettings, team: Team) -> None:
         """The collaborators, each given the shared state it needs."""
         agents, events = self._agents, self._events
-        self._alive = StayingAlive(belief, settings, agents, events)
-        self._traffic = Traffic(
-            belief, settings, agents, self._alive, self._search, self._roadmap, events
+        self._alive = alive = StayingAlive(
+            belief=belief, settings=settings, agents=agents, events=events
         )
-        self._give_way = GiveWay(belief, settings, agents, self._traffic, self._alive)
-        self._sweep = Sweep(belief, settings, self._traffic.occupant, team)
+        self._traffic = traffic = Traffic(
+            belief=belief,
+            settings=settings,
+            agents=agents,
+            alive=alive,
+            search=self._search,
+            roadmap=self._roadmap,
+            events=events,
+        )
+        self._give_way = GiveWay(
+            belief=belief, settings=settings, agents=agents, traffic=traffic, alive=alive
+        )
+        self._sweep = Sweep(belief=belief, settings=settings, occupant=traffic.occupant, team=team)
         self._targets = Targets(
-            belief,
-            settings,
-            self.stacks,
-            self._traffic,
-            self._alive,
-            self._search,
-            self._roadmap,
-            team,
-            events,
+            belief=belief,
+            settings=settings,
+            stacks=self.stacks,
+            traffic=traffic,
+            alive=alive,
+            search=self._search,
+            roadmap=self._roadmap,
+            team=team,
+            events=events,
         )
 
     # -- queries ------------------------------------------------------------
@@ -328,8 +338,8 @@ class Coordinator:
         return None
 
     def _go_home(self, a: AgentRecord) -> Action:
-        """Returning to charge, or homing at the end: on, or at the charger, charge or
-        be done."""
+        """Returning to charge, or homing at the end: on towards the charger; there,
+        charge, or be done."""
         if a.index != self.belief.charger_index:
             return self._traffic.follow(a, self.belief.charger_index)
         full = a.battery_pct >= self.settings.resume_pct - EPS

@@ -24,6 +24,7 @@ class GiveWay:
 
     def __init__(
         self,
+        *,
         belief: MapBelief,
         settings: PlannerSettings,
         agents: Fleet,

@@ -31,6 +31,7 @@ class StayingAlive:
 
     def __init__(
         self,
+        *,
         belief: MapBelief,
         settings: PlannerSettings,
         agents: Fleet,

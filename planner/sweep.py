@@ -18,6 +18,7 @@ class Sweep:
 
     def __init__(
         self,
+        *,
         belief: MapBelief,
         settings: PlannerSettings,
         occupant: dict[int, int],

@@ -76,6 +76,7 @@ class Targets:
 
     def __init__(
         self,
+        *,
         belief: MapBelief,
         settings: PlannerSettings,
         stacks: btp.BtpStacks,

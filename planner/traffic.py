@@ -61,6 +61,7 @@ class Traffic:
 
     def __init__(
         self,
+        *,
         belief: MapBelief,
         settings: PlannerSettings,
         agents: Fleet,
