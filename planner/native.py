@@ -34,6 +34,13 @@ COMPILED = (
     "planner.belief",
     "planner.btp",
     "planner.settled_target",
+    "planner.agent",
+    "planner.staying_alive",
+    "planner.traffic",
+    "planner.give_way",
+    "planner.sweep",
+    "planner.targets",
+    "planner.known_map",
     "planner.coordinator",
 )
 #: What the build records beside the modules: {module: sha256 of its source}.

@@ -23,7 +23,7 @@ from gcs.mission import (
 )
 from gcs.outcome.result import RunResult
 from gcs.preflight import charger_distances
-from planner.coordinator import EventKind, PlannerEvent
+from planner.agent import EventKind, PlannerEvent
 from sitl_mock.gridmap import GridMap
 
 

@@ -9,6 +9,7 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 
 def _as_in_a_terminal() -> None:
@@ -63,3 +64,14 @@ def processes_naming(text: str) -> list[int]:
         except OSError:
             continue  # ended meanwhile
     return found
+
+
+def stop(process: subprocess.Popen[Any]) -> None:
+    """Terminate a child process, killing it if it does not end within 10 s."""
+    if process.poll() is None:
+        process.terminate()
+        try:
+            process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait(timeout=10)

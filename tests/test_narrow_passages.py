@@ -11,9 +11,11 @@ from hypothesis import strategies as st
 from gcs.generated_missions import case_mission
 from gcs.offline.simulate import SimOptions, simulate
 from gcs.planning import planner_settings
-from planner.coordinator import _GIVEN_WAY_AFTER, ActionKind, AgentMode, Coordinator, PlannerEvent
+from planner.agent import ActionKind, AgentMode, PlannerEvent
+from planner.coordinator import Coordinator
 from planner.grid import Cell, CellState
 from planner.settings import AgentSpec, PlannerSettings
+from planner.traffic import GIVEN_WAY_AFTER
 from sitl_mock.gridmap import GridMap
 from sitl_mock.mapgen import caves, entrance, rooms
 from sitl_mock.maps import make_map, parse_ascii
@@ -112,7 +114,7 @@ def test_an_agent_asked_to_make_way_by_one_long_held_up_going_home_goes_home_too
     returning, idle = c._agents[2], c._agents[1]
     returning.mode = AgentMode.RETURN
     returning.path = [c.belief.index(cell) for cell in [(2, 1), (3, 1), (4, 1)]]
-    returning.waited = _GIVEN_WAY_AFTER * c.settings.patience
+    returning.waited = GIVEN_WAY_AFTER * c.settings.patience
     idle.make_way_for = 2
     c.decide(1)
     assert c.mode(1) == AgentMode.RETURN

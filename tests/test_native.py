@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from planner import native
-from planner.coordinator import Action, ActionKind
+from planner.agent import Action, ActionKind
 
 SUFFIX = importlib.machinery.EXTENSION_SUFFIXES[0]
 #: The packages whose modules ``native.COMPILED`` may list.

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from gcs.offline.simulate import SimOptions, simulate
 from gcs.planning import planner_settings
-from planner.coordinator import PlannerEvent
+from planner.agent import PlannerEvent
 from planner.grid import NEIGHBOURS
 from planner.settings import BmRule, PathPlannerKind, TargetPolicy
 from sitl_mock import mapgen

@@ -10,8 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from planner import btp
+from planner.agent import ActionKind, AgentMode, EventKind, PlannerEvent
 from planner.belief import UNREACHED, MapBelief
-from planner.coordinator import ActionKind, AgentMode, Coordinator, EventKind, PlannerEvent
+from planner.coordinator import Coordinator
 from planner.grid import MOVES, NEIGHBOURS, Cell, CellState, Direction
 from planner.paths import bfs_distances, nearest, path_to_charger, shortest_path
 from planner.prm import Roadmap, line_cells

@@ -5,7 +5,8 @@ from __future__ import annotations
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from planner.coordinator import ActionKind, AgentMode, Coordinator
+from planner.agent import ActionKind, AgentMode
+from planner.coordinator import Coordinator
 from planner.settings import AgentSpec, PlannerSettings
 from sitl_mock import mapgen
 from sitl_mock.gridmap import GridMap

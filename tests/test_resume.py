@@ -19,16 +19,17 @@ import numpy as np
 import pytest
 
 from core.cells import Cell
-from gcs.bench.faults import log_loss_s, stop
+from gcs.bench.faults import log_loss_s
 from gcs.live.resume import ResumeError, ResumePoint, load_resume_point, resumed_text
 from gcs.log.reader import read_contents
 from gcs.mission import load_mission
-from planner.coordinator import ActionKind, Coordinator
+from planner.agent import ActionKind
+from planner.coordinator import Coordinator
 from planner.settings import AgentSpec, PlannerSettings
 from sitl_mock.gridmap import GridMap
 from sitl_mock.lockstep import Body, LockstepWorld
 from sitl_mock.mapgen import caves, open_field, rooms
-from tests.processes import gcs_run
+from tests.processes import gcs_run, stop
 from tests.test_live_mission import write_mission
 
 AGENTS = (1, 2, 3)

@@ -52,7 +52,7 @@ from gcs.live.sensing import (
 from gcs.live.shared import Level, Phase, SharedPlanner, VehicleView
 from gcs.log.mission_log import GeoFix
 from gcs.mission import Sensing, VehicleSpec
-from planner.coordinator import Action, ActionKind, AgentMode
+from planner.agent import Action, ActionKind, AgentMode
 from planner.paths import path_to_charger
 from sitl_mock.gridmap import GridMap
 from vehicles.errors import LinkError, MissionError

@@ -16,7 +16,8 @@ import numpy as np
 
 from core.cells import Cell, manhattan
 from gcs.outcome.result import AgentTrace, BtpLog, RunResult
-from planner.coordinator import Coordinator, EventKind, PlannerEvent
+from planner.agent import EventKind, PlannerEvent
+from planner.coordinator import Coordinator
 
 
 @dataclass

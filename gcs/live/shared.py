@@ -28,15 +28,8 @@ from core.cells import Cell, CellState, Direction
 from core.clocks import Clock
 from gcs.live.record import MissionRecord
 from gcs.log.mission_log import GeoFix, MissionLog
-from planner.coordinator import (
-    WAIT,
-    Action,
-    ActionKind,
-    AgentMode,
-    Coordinator,
-    EventKind,
-    PlannerEvent,
-)
+from planner.agent import WAIT, Action, ActionKind, AgentMode, EventKind, PlannerEvent
+from planner.coordinator import Coordinator
 
 _T = TypeVar("_T")
 

@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING
 from core.cells import Cell
 from gcs.live.shared import Phase, SharedPlanner, VehicleView
 from gcs.log.mission_log import WAY_CELLS, MissionLog, MissionProgress, VehicleStatus
+from planner.agent import AgentMode
 from planner.belief import UNREACHED
-from planner.coordinator import AgentMode
 
 if TYPE_CHECKING:
     from gcs.live.run import LiveRun

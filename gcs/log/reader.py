@@ -36,7 +36,7 @@ from gcs.log.topics import (
     readings_from_code,
 )
 from gcs.outcome.result import AgentTrace, BtpRecord, RunResult
-from planner.coordinator import AgentMode, EventKind
+from planner.agent import AgentMode, EventKind
 
 #: Modes whose moves count as driving home after coverage, not as coverage path.
 HOMING_MODES = frozenset({AgentMode.HOMING.value, AgentMode.DONE.value})

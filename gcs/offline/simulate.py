@@ -19,7 +19,8 @@ from gcs.log.mission_log import MissionLog
 from gcs.mission import Mission
 from gcs.outcome.result import AgentTrace, BtpLog, RunResult
 from gcs.planning import planner_settings, prior_map
-from planner.coordinator import ActionKind, AgentMode, Coordinator, EventKind, PlannerEvent
+from planner.agent import ActionKind, AgentMode, EventKind, PlannerEvent
+from planner.coordinator import Coordinator
 from planner.settings import AgentSpec, PlannerSettings
 from sitl_mock.lockstep import Body, LockstepWorld
 

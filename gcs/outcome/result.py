@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from core.cells import Cell
-from planner.coordinator import EventKind, PlannerEvent
+from planner.agent import EventKind, PlannerEvent
 
 
 @dataclass(frozen=True)
