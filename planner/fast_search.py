@@ -1079,8 +1079,9 @@ class TargetSearch:
         settled.keep(cells, energy[0], energy[1:], self.belief, np.array(excluded, np.int64))
 
 
-def _warm_up() -> None:
-    """Compile (or load from numba's cache) at import, not in the first decision."""
+def warm_up() -> None:
+    """Compile this module's kernels (or load them from numba's cache) now, not in
+    the first decision: a program calls it before it times or flies anything."""
     belief = MapBelief((1, 2), (0, 0))
     belief.mark_free(belief.index((0, 1)))
     search = TargetSearch(belief)
@@ -1088,6 +1089,3 @@ def _warm_up() -> None:
     search.run(belief.index((0, 0)), 100.0, 0.0, 0.0, 0.0, 100.0, (nobody, nobody), 0, [])
     nearest_manhattan(nobody, nobody, 0, 0)
     search.path(belief.index((0, 0)), belief.index((0, 1)))
-
-
-_warm_up()
