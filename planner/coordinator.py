@@ -28,7 +28,7 @@ from scipy import ndimage
 
 from planner import btp
 from planner.belief import UNREACHED, MapBelief, with_unknown_side
-from planner.fast_search import HorizonMemo, TargetSearch, Team, WayMemo, nearest_manhattan
+from planner.bounded_search import nearest_manhattan
 from planner.grid import MOVES, Cell, CellState, Direction, manhattan
 from planner.paths import path_to_charger, path_to_known
 from planner.prm import Roadmap
@@ -39,7 +39,8 @@ from planner.settings import (
     PlannerSettings,
     TargetPolicy,
 )
-from planner.settled_target import SettledTarget
+from planner.target_search import Energy, Hint, SearchMemory, SearchRequest, target_search
+from planner.team import Team
 
 _FREE = int(CellState.FREE)
 _OBSTACLE = int(CellState.OBSTACLE)
@@ -163,9 +164,8 @@ class _Agent:
     index: int
     team: Team
     slot: int
-    memo: HorizonMemo
-    way_memo: WayMemo = field(default_factory=WayMemo)
-    settled: SettledTarget = field(default_factory=SettledTarget)
+    #: What the target search keeps of the agent (``TargetSearch.memory``).
+    search_memory: SearchMemory
     battery_pct: float = 100.0
     _mode: AgentMode = _EXPLORE
     path: deque[int] = field(default_factory=deque)  # remaining moves, next first
@@ -238,9 +238,14 @@ class Coordinator:
             self._load_prior(prior)
         self.stacks = btp.BtpStacks()
         self._team = Team(len(agents), charger)
+        self._search = target_search(self.belief, self.settings)
         self._agents = {
             a.id: _Agent(
-                a, self.belief.charger_index, self._team, slot, HorizonMemo(self._team, slot)
+                a,
+                self.belief.charger_index,
+                self._team,
+                slot,
+                self._search.memory(self._team, slot),
             )
             for slot, a in enumerate(agents)
         }
@@ -253,7 +258,6 @@ class Coordinator:
         self.cut_off_cells = 0
         self._witness_key: tuple[float | None, int] | None = None
         self._recalled = False  # see ``recall``
-        self._search = TargetSearch(self.belief)
         #: The direction of a move, by the difference of the flat indices.
         self._heading_of = {self.belief.offset[d]: d for d in MOVES}
         self._roadmap = (
@@ -732,22 +736,23 @@ class Coordinator:
         """
         spread = self.settings.spread
         hold = self.settings.hold_radius if spread else 0
-        found = self._search.run(
-            a.index,
-            a.battery_pct,
-            self._move_cost(a),
-            self.settings.reserve_pct - _EPS,
-            self._best_move_cost(),
-            self._range_budget_pct,
-            self._team.others(a.slot) if spread else _NOBODY,
-            hold,
-            list(self._claims),
-            pool,
-            a.memo if pool is None else None,
-            hint if pool is None else None,
-            a.way_memo if pool is None else None,
-            a.settled if pool is None else None,
+        energy = Energy(
+            battery=a.battery_pct,
+            cost=self._move_cost(a),
+            floor=self.settings.reserve_pct - _EPS,
+            best_cost=self._best_move_cost(),
+            budget=self._range_budget_pct,
         )
+        request = SearchRequest(
+            start=a.index,
+            energy=energy,
+            others=self._team.others(a.slot) if spread else _NOBODY,
+            hold=hold,
+            excluded=list(self._claims),
+            pool=pool,
+            hint=Hint(*hint) if hint is not None and pool is None else None,
+        )
+        found = self._search.run(request, a.search_memory)
         if found is None:
             return None
         level, goal, path = found

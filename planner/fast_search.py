@@ -11,6 +11,7 @@ compiled to machine code.
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
@@ -34,13 +35,19 @@ from planner.bounded_search import (
 )
 from planner.grid import CellState
 from planner.landmarks import HOME, Landmarks
+from planner.settings import SearchShortcuts
 from planner.settled_target import SettledTarget, SettledTie
+from planner.target_search import (
+    HELD_BACK,
+    Energy,
+    Found,
+    SearchMemory,
+    SearchRequest,
+)
+from planner.team import Team
 
 _FREE = int(CellState.FREE)
-#: What ``TargetSearch.run`` returns when, with a ``hold`` radius, every
-#: candidate the agent can afford is left to another agent: rank 2, and no
-#: target (the agent is held back; finding a way to one would be wasted).
-HELD_BACK: tuple[int, int, Sequence[int]] = (2, -1, ())
+ALL_SHORTCUTS = SearchShortcuts()
 #: The marks of the spare ``seen`` one ``_search`` may use: ``first_lesser``'s,
 #: and one for each ``none_uncontested``.
 _SPARE_MARKS = AMONG_MARKS * JUMP_TRIES + 2
@@ -324,28 +331,6 @@ def _unwind(parent: np.ndarray, start: int, goal: int, way: np.ndarray) -> int:
     return length
 
 
-class Team:
-    """Where every agent is and which are working (sweeping or on the way to sweep),
-    as arrays the compiled searches read without building lists each decision.
-    Agents are numbered by slot."""
-
-    def __init__(self, size: int, at: tuple[int, int]) -> None:
-        self.rows = np.full(size, at[0], dtype=np.int64)
-        self.cols = np.full(size, at[1], dtype=np.int64)
-        self.working = np.ones(size, dtype=np.bool_)
-
-    def others_mask(self, slot: int) -> np.ndarray:
-        """The working agents other than ``slot``."""
-        mask = self.working.copy()
-        mask[slot] = False
-        return mask
-
-    def others(self, slot: int) -> tuple[np.ndarray, np.ndarray]:
-        """Rows and columns of the working agents other than ``slot``."""
-        mask = self.others_mask(slot)
-        return self.rows[mask], self.cols[mask]
-
-
 @njit(cache=True, nogil=True)
 def _moved_within(
     rows0: np.ndarray,
@@ -504,8 +489,34 @@ class WayMemo:
         self._since, self._kept, self._claimed = belief.added_count, kept, claimed
 
 
-class TargetSearch:
-    """Scratch arrays for ``_search``, reused across calls on one belief."""
+@dataclass
+class SearchCounts:
+    """How often the compiled search took each way to an answer (for the tests and
+    the benches: the shortcuts must be taken to be worth their code)."""
+
+    searches: int = 0  # full breadth-first searches (``_search``)
+    confirmed: int = 0  # answers of ``_confirm``
+    carried: int = 0  # settled targets carried on
+    way_listed: int = 0  # confirmations that passed over the way memo's cells
+
+
+class AgentMemory(SearchMemory):
+    """What the compiled search keeps of one agent (each part may be None: not kept)."""
+
+    def __init__(
+        self,
+        horizon: HorizonMemo | None = None,
+        way: WayMemo | None = None,
+        settled: SettledTarget | None = None,
+    ) -> None:
+        self.horizon = horizon
+        self.way = way
+        self.settled = settled
+
+
+class CompiledSearch:
+    """The target search with compiled kernels (``planner.target_search``): scratch
+    arrays for ``_search``, reused across calls on one belief."""
 
     #: Most candidates ``_confirm`` looks at one by one. On a long way in rooms
     #: the lower bounds leave hundreds, all farther than the target, and the
@@ -519,9 +530,11 @@ class TargetSearch:
     FEW = 512
     LIST_COST = 8
 
-    def __init__(self, belief: MapBelief) -> None:
+    def __init__(self, belief: MapBelief, shortcuts: SearchShortcuts = ALL_SHORTCUTS) -> None:
         size = len(belief.state)
         self.belief = belief
+        self.shortcuts_taken = shortcuts
+        self.counts = SearchCounts()
         self.seen = np.zeros(size, dtype=np.int32)
         self.parent = np.zeros(size, dtype=np.int32)
         self.queue = np.zeros(size, dtype=np.int32)
@@ -695,6 +708,7 @@ class TargetSearch:
             pool = None
             if way_memo is not None:
                 pool = way_memo.listed(start, goal, moves, self.belief, most)
+                self.counts.way_listed += pool is not None
             if pool is None:
                 if self.belief.uncovered_count * self.LIST_COST < square:
                     pool = self.uncovered_list[: self.belief.uncovered_count]
@@ -889,7 +903,27 @@ class TargetSearch:
         new = self.shortcuts[since : belief.shortcut_count]
         return none_between(new, start, goal, moves, stride, self.lands)
 
-    def run(
+    def memory(self, team: Team, slot: int) -> AgentMemory:
+        return AgentMemory(HorizonMemo(team, slot), WayMemo(), SettledTarget())
+
+    def run(self, request: SearchRequest, memory: SearchMemory | None = None) -> Found | None:
+        """The answer of ``planner.target_search`` (``memory``: an ``AgentMemory``)."""
+        taken = self.shortcuts_taken
+        kept = memory if isinstance(memory, AgentMemory) and request.pool is None else None
+        horizon = kept.horizon if kept is not None and taken.shortlist else None
+        way = kept.way if kept is not None and taken.way_memo else None
+        settled = kept.settled if kept is not None and taken.settled else None
+        hint = request.hint if request.pool is None else None
+        battery, cost, floor, best_cost, budget = request.energy
+        found = self._run_all(
+            request.start, battery, cost, floor, best_cost, budget, request.others,
+            request.hold, list(request.excluded), request.pool, horizon, hint, way, settled,
+        )  # fmt: skip
+        if found is None or found is HELD_BACK:
+            return found
+        return Found(*found)
+
+    def _run_all(
         self,
         start: int,
         battery: float,
@@ -932,6 +966,7 @@ class TargetSearch:
             and settled.goal == hint[0]
             and self._carried(start, hint, energy, excluded, settled)
         ):
+            self.counts.carried += 1
             return 0, hint[0], hint[1]
         found = self._run(start, energy, others, hold, excluded, pool, memo, hint, way_memo)
         self._settle(settled, start, found, energy, excluded)
@@ -970,23 +1005,25 @@ class TargetSearch:
         # The shortcuts read the uncovered cells' mask (``self.candidate``) with
         # the claimed cells masked out, as the search does.
         try:
-            if hint is not None and pool is None:
+            if hint is not None and pool is None and self.shortcuts_taken.confirm:
                 goal, way, known_at = hint
                 sure = self._confirm(
                     start, goal, way, known_at, listed, margin, memo, energy, others, hold,
                     claimed, way_memo,
                 )  # fmt: skip
                 if sure is not None:
+                    self.counts.confirmed += 1
                     return sure
                 if margin >= 0 and memo is not None:
                     renewed = memo.shortlist(self.belief)  # by the confirmation
                     if renewed is not None:
                         listed, margin = renewed, -1
-            if pool is None and hold > 0 and others[0].size:
+            if pool is None and hold > 0 and others[0].size and self.shortcuts_taken.left_to_others:
                 known, found = self._all_left_to_others(start, energy, others, hold)
                 if known:
                     return found
             self.stamp += 1
+            self.counts.searches += 1
             rank, cell, kept = _search(
                 self.state,
                 mask,
@@ -1084,8 +1121,9 @@ def warm_up() -> None:
     the first decision: a program calls it before it times or flies anything."""
     belief = MapBelief((1, 2), (0, 0))
     belief.mark_free(belief.index((0, 1)))
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     nobody = np.zeros(0, dtype=np.int64)
-    search.run(belief.index((0, 0)), 100.0, 0.0, 0.0, 0.0, 100.0, (nobody, nobody), 0, [])
+    energy = Energy(100.0, 0.0, 0.0, 0.0, 100.0)
+    search.run(SearchRequest(belief.index((0, 0)), energy, (nobody, nobody), 0))
     nearest_manhattan(nobody, nobody, 0, 0)
     search.path(belief.index((0, 0)), belief.index((0, 1)))

@@ -10,12 +10,12 @@ from hypothesis import strategies as st
 
 from planner import bounded_search, landmarks
 from planner.belief import UNREACHED, MapBelief
-from planner.fast_search import TargetSearch
+from planner.fast_search import CompiledSearch
 from planner.grid import CellState
 from planner.landmarks import HOME, Landmarks
 from planner.paths import bfs_distances
 from sitl_mock import mapgen
-from tests.test_fast_search import _tracks_digest
+from tests.test_target_search import _tracks_digest
 
 SIDE = 30
 
@@ -150,7 +150,7 @@ def test_the_bound_is_never_more_than_the_way(seed: int, walls: float) -> None:
     grid[0, 0] = False
     for r, c in zip(*np.nonzero(~grid), strict=True):
         belief.mark_free(belief.index((int(r), int(c))))
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(landmarks, "DETOUR", 0.0)
         lands = search.landmarks.update()
