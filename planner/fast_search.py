@@ -638,7 +638,7 @@ class CompiledSearch:
         hold: int,
         claimed: np.ndarray,
         way_memo: WayMemo | None,
-    ) -> tuple[int, int, Sequence[int]] | None:
+    ) -> Found | None:
         """What the search from ``start`` would return, found without it when the
         agent is on ``way`` to ``goal``; None when only the search can tell.
         ``claimed``: the cells masked out as claimed by others; ``way_memo``: the
@@ -723,7 +723,7 @@ class CompiledSearch:
         if self._still_shortest(start, goal, moves, known_at):
             if count == 0:
                 self._alone = True
-                return rank, goal, way
+                return Found(rank, goal, way)
             # ``goal`` is as far as ``way``: only a rival nearer comes first, or one
             # as near whose way comes first in the search's order (left to the
             # search below). Bounded to the ways to the rivals alone, the search
@@ -733,7 +733,7 @@ class CompiledSearch:
             )
             if found is None:
                 self._alone = True
-                return rank, goal, way
+                return Found(rank, goal, way)
             if len(found[2]) < moves:
                 return found
             # As far as the goal: the rivals after it come later still, so only
@@ -741,7 +741,7 @@ class CompiledSearch:
             rival = found[1]
             tie = None if way_memo is None else way_memo.tie
             if tie is not None and self._tie_holds(start, goal, rival, moves, tie):
-                return rank, goal, way
+                return Found(rank, goal, way)
             self._rivals[:2] = rival, goal
             pair = self._rivals[:2]
             found = self._first_among(start, pair, moves, rank, hold, others, energy, way)
@@ -794,11 +794,11 @@ class CompiledSearch:
         others: tuple[np.ndarray, np.ndarray],
         energy: tuple[float, float, float, float, float],
         way: Sequence[int] = (),
-    ) -> tuple[int, int, Sequence[int]] | None:
+    ) -> Found | None:
         """``first_among`` with this search's scratch arrays: (rank, cell, path),
         the path ``way`` when that is one as short (``_way_to``)."""
         rank, cell = self._first_reached(start, targets, bound, rank, hold, others, energy)
-        return None if rank < 0 else (rank, cell, self._way_to(start, cell, way))
+        return None if rank < 0 else Found(rank, cell, self._way_to(start, cell, way))
 
     def _first_reached(
         self,
@@ -839,7 +839,7 @@ class CompiledSearch:
         energy: tuple[float, float, float, float, float],
         others: tuple[np.ndarray, np.ndarray],
         hold: int,
-    ) -> tuple[bool, tuple[int, int, Sequence[int]] | None]:
+    ) -> tuple[bool, Found | None]:
         """``(True, what the search returns)`` when every candidate is surely left
         to another agent (within ``hold`` of one, and nearer to it), else
         ``(False, None)``.
@@ -917,11 +917,9 @@ class CompiledSearch:
         battery, cost, floor, best_cost, budget = request.energy
         found = self._run_all(
             request.start, battery, cost, floor, best_cost, budget, request.others,
-            request.hold, list(request.excluded), request.pool, horizon, hint, way, settled,
+            request.hold, request.excluded, request.pool, horizon, hint, way, settled,
         )  # fmt: skip
-        if found is None or found is HELD_BACK:
-            return found
-        return Found(*found)
+        return found
 
     def _run_all(
         self,
@@ -933,13 +931,13 @@ class CompiledSearch:
         budget: float,
         others: tuple[np.ndarray, np.ndarray],
         hold: int,
-        excluded: list[int],
+        excluded: Sequence[int],
         pool: Iterable[int] | None = None,
         memo: HorizonMemo | None = None,
         hint: tuple[int, Sequence[int], tuple[int, int] | None] | None = None,
         way_memo: WayMemo | None = None,
         settled: SettledTarget | None = None,
-    ) -> tuple[int, int, Sequence[int]] | None:
+    ) -> Found | None:
         """The best target as ``(rank, cell, path)`` among ``pool`` (None: the
         uncovered cells), ranked against the ``others`` (rows, columns) agents;
         ``excluded`` cells (claimed by other agents) are not candidates.
@@ -967,7 +965,7 @@ class CompiledSearch:
             and self._carried(start, hint, energy, excluded, settled)
         ):
             self.counts.carried += 1
-            return 0, hint[0], hint[1]
+            return Found(0, hint[0], hint[1])
         found = self._run(start, energy, others, hold, excluded, pool, memo, hint, way_memo)
         self._settle(settled, start, found, energy, excluded)
         return found
@@ -978,12 +976,12 @@ class CompiledSearch:
         energy: tuple[float, float, float, float, float],
         others: tuple[np.ndarray, np.ndarray],
         hold: int,
-        excluded: list[int],
+        excluded: Sequence[int],
         pool: Iterable[int] | None,
         memo: HorizonMemo | None,
         hint: tuple[int, Sequence[int], tuple[int, int] | None] | None,
         way_memo: WayMemo | None,
-    ) -> tuple[int, int, Sequence[int]] | None:
+    ) -> Found | None:
         """``run`` without the settled target."""
         battery, cost, floor, best_cost, budget = energy
         self._alone = False
@@ -1059,14 +1057,14 @@ class CompiledSearch:
             return None
         if rank == HELD_BACK[0] and hold > 0:
             return HELD_BACK
-        return rank, cell, self._way_to(start, cell, hint[1] if hint is not None else ())
+        return Found(rank, cell, self._way_to(start, cell, hint[1] if hint is not None else ()))
 
     def _carried(
         self,
         start: int,
         hint: tuple[int, Sequence[int], tuple[int, int] | None],
         energy: tuple[float, float, float, float, float],
-        excluded: list[int],
+        excluded: Sequence[int],
         settled: SettledTarget,
     ) -> bool:
         """Is the hint's target, by the hint's way, what the search would return,
@@ -1100,9 +1098,9 @@ class CompiledSearch:
         self,
         settled: SettledTarget,
         start: int,
-        found: tuple[int, int, Sequence[int]] | None,
+        found: Found | None,
         energy: tuple[float, float, float, float, float],
-        excluded: list[int],
+        excluded: Sequence[int],
     ) -> None:
         """Keep what the check just proved (while no other agent works)."""
         if settled.goal >= 0:

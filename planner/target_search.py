@@ -28,7 +28,6 @@ shortcuts, each of which can be switched off: ``SearchShortcuts``).
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
 from typing import NamedTuple, Protocol
 
 import numpy as np
@@ -58,8 +57,7 @@ class Hint(NamedTuple):
     known_at: tuple[int, int] | None
 
 
-@dataclass(frozen=True)
-class SearchRequest:
+class SearchRequest(NamedTuple):
     """One search: from ``start``, among ``pool`` (None: every uncovered cell),
     ranked against the ``others`` (rows, columns of the other working agents);
     ``excluded`` cells (claimed by other agents) are no candidates. ``hint``: only
