@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from gcs.generated_missions import GENERATORS, MAP_SEED, case_mission
 from gcs.simulate import SimOptions, simulate
-from planner.fast_search import warm_up
+from planner.speed.compiled_search import warm_up
 
 #: The run that calls every kernel: a maze of rooms this many cells a side, this many agents.
 WARM_UP_SIDE = 30

@@ -28,7 +28,6 @@ from scipy import ndimage
 
 from planner import btp
 from planner.belief import UNREACHED, MapBelief, with_unknown_side
-from planner.bounded_search import nearest_manhattan
 from planner.grid import MOVES, Cell, CellState, Direction, manhattan
 from planner.paths import path_to_charger, path_to_known
 from planner.prm import Roadmap
@@ -39,6 +38,7 @@ from planner.settings import (
     PlannerSettings,
     TargetPolicy,
 )
+from planner.speed.bounds import nearest_manhattan
 from planner.target_search import Energy, Hint, SearchMemory, SearchRequest, target_search
 from planner.team import Team
 

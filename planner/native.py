@@ -33,7 +33,7 @@ COMPILED = (
     "planner.grid",
     "planner.belief",
     "planner.btp",
-    "planner.settled_target",
+    "planner.speed.settled_target",
     "planner.coordinator",
 )
 #: What the build records beside the modules: {module: sha256 of its source}.

@@ -1,6 +1,6 @@
 """The target search written plainly: one breadth-first search, no shortcuts.
 
-It answers exactly as the compiled search (``planner.fast_search``) does, and
+It answers exactly as the compiled search (``planner.speed.compiled_search``) does, and
 is what that one is checked against (``PlannerSettings.search``,
 ``SearchKind.REFERENCE``). The rule is ``planner.target_search``'s.
 """

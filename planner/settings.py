@@ -23,7 +23,7 @@ class SearchKind(StrEnum):
 
 @dataclass(frozen=True)
 class SearchShortcuts:
-    """Which shortcuts the compiled target search takes (``planner.fast_search``).
+    """Which shortcuts the compiled target search takes (``planner.speed.compiled_search``).
     Each only spares work: the plans are the same without it, which the tests
     show by switching it off here."""
 

@@ -20,7 +20,7 @@ reserve: ``battery - cost * (moves + home) >= floor``. The path is the first
 shortest way the search found, or the ``hint``'s way when it ends at the
 target and is as short.
 
-``planner.reference_search`` is that rule written plainly; ``planner.fast_search``
+``planner.reference_search`` is that rule written plainly; ``planner.speed.compiled_search``
 gives the same answers with compiled kernels and per-agent memories (the
 shortcuts, each of which can be switched off: ``SearchShortcuts``).
 """
@@ -119,6 +119,6 @@ def target_search(belief: MapBelief, settings: PlannerSettings) -> TargetSearch:
         from planner.reference_search import ReferenceSearch
 
         return ReferenceSearch(belief)
-    from planner.fast_search import CompiledSearch
+    from planner.speed.compiled_search import CompiledSearch
 
     return CompiledSearch(belief, settings.search_shortcuts)

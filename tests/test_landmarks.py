@@ -8,12 +8,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from planner import bounded_search, landmarks
 from planner.belief import UNREACHED, MapBelief
-from planner.fast_search import CompiledSearch
 from planner.grid import CellState
-from planner.landmarks import HOME, Landmarks
 from planner.paths import bfs_distances
+from planner.speed import bounds, landmarks
+from planner.speed.compiled_search import CompiledSearch
+from planner.speed.landmarks import HOME, Landmarks
 from sitl_mock import mapgen
 from tests.test_target_search import _tracks_digest
 
@@ -158,10 +158,10 @@ def test_the_bound_is_never_more_than_the_way(seed: int, walls: float) -> None:
     for u in rng.choice(reached, size=5):
         way = bfs_distances(belief, int(u))
         for v in rng.choice(reached, size=20):
-            bound = bounded_search.way_at_least(int(u), int(v), belief.stride, lands)
+            bound = bounds.way_at_least(int(u), int(v), belief.stride, lands)
             assert bound <= way[int(v)]
             for moves in (bound - 1, bound, way[int(v)]):
-                within = bounded_search.way_within(int(u), int(v), moves, belief.stride, lands)
+                within = bounds.way_within(int(u), int(v), moves, belief.stride, lands)
                 assert within == (bound <= moves)
 
 

@@ -12,9 +12,9 @@ from typing import Any
 import pytest
 
 from gcs.simulate import SimOptions, planner_settings, simulate
-from planner import fast_search
-from planner.fast_search import CompiledSearch, SearchCounts
 from planner.settings import SearchKind, SearchShortcuts
+from planner.speed import compiled_search
+from planner.speed.compiled_search import CompiledSearch, SearchCounts
 from sitl_mock import mapgen
 from tests.checks import make_mission
 
@@ -50,7 +50,7 @@ def _counted(monkeypatch, grid, agents: int, **settings: Any) -> tuple[str, Sear
             super().__init__(*args)
             made.append(self)
 
-    monkeypatch.setattr(fast_search, "CompiledSearch", Recorded)
+    monkeypatch.setattr(compiled_search, "CompiledSearch", Recorded)
     digest = _tracks_digest(grid, agents, **settings)
     counts = SearchCounts()
     for search in made:

@@ -1,11 +1,12 @@
-"""The target search of a blocked agent, compiled with numba.
+"""The target search with compiled kernels (``planner.target_search``'s rule).
 
-A blocked agent ranks every reachable uncovered cell against the rest of the
-team (see ``Coordinator._nearest_affordable``); in a large team most searches
-cover the whole known map, which in pure Python is most of the planner's
-time. This is the same breadth-first search (same N, S, E, W order, same
-ranks, same tie-breaks, so the same plans) over the belief's flat arrays,
-compiled to machine code.
+The full search is ``search_kernels.ranked_search``; most decisions are answered
+without it: on the way to a target by a confirmation (``_confirm``: a pass over
+the few candidates that might come first, and a search bounded to the ways to
+them), by a target carried on while nothing it rests on changed
+(``SettledTarget``), or, when every candidate is left to other agents, by
+``_all_left_to_others``. Each shortcut can be switched off
+(``PlannerSettings.search_shortcuts``): the answers are the same.
 """
 
 from __future__ import annotations
@@ -14,29 +15,33 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from planner.belief import UNREACHED, MapBelief
-from planner.bounded_search import (
-    AMONG_MARKS,
-    JUMP_AFTER,
-    JUMP_TRIES,
-    first_among,
-    first_lesser,
+from planner.grid import CellState
+from planner.settings import SearchShortcuts
+from planner.speed.bounds import (
     in_square,
-    landmark_gap,
     nearest_manhattan,
     none_between,
-    none_uncontested,
     rivals_listed,
     surely_affordable,
-    target_rank,
     way_at_least,
 )
-from planner.grid import CellState
-from planner.landmarks import HOME, Landmarks
-from planner.settings import SearchShortcuts
-from planner.settled_target import SettledTarget, SettledTie
+from planner.speed.landmarks import Landmarks
+from planner.speed.memory import AgentMemory, HorizonMemo, WayMemo
+from planner.speed.search_kernels import (
+    SPARE_MARKS,
+    path_search,
+    ranked_search,
+    uncontested_horizon,
+    unwind,
+)
+from planner.speed.settled_target import SettledTarget, SettledTie
+from planner.speed.walks import (
+    AMONG_MARKS,
+    first_among,
+    none_uncontested,
+)
 from planner.target_search import (
     HELD_BACK,
     Energy,
@@ -47,446 +52,8 @@ from planner.target_search import (
 from planner.team import Team
 
 _FREE = int(CellState.FREE)
+
 ALL_SHORTCUTS = SearchShortcuts()
-#: The marks of the spare ``seen`` one ``_search`` may use: ``first_lesser``'s,
-#: and one for each ``none_uncontested``.
-_SPARE_MARKS = AMONG_MARKS * JUMP_TRIES + 2
-
-
-@njit(cache=True, nogil=True)
-def _uncontested_horizon(
-    candidate: np.ndarray,
-    listed: np.ndarray,
-    start: int,
-    stride: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    margin: int,
-    kept: np.ndarray,
-    lands: np.ndarray,
-) -> tuple[int, int]:
-    """The largest distance at which a candidate could still be uncontested.
-
-    A candidate ``v`` at path distance ``d`` is uncontested when every other
-    agent is at least ``d`` away (Manhattan); as ``d`` is at least the
-    Manhattan distance from the start, and the difference of the two cells'
-    distances from a landmark (``landmark_gap``), only candidates that no
-    other agent is nearer to than that can be, and none farther than its
-    distance to the nearest other agent. One pass over the ``listed`` cells
-    (those still marked in ``candidate`` count), far cheaper than a search of
-    the map.
-
-    With ``margin`` >= 0 the pass also keeps, in ``kept``, every listed cell
-    (marked or not: a claim may be released) that no other agent is more than
-    ``margin`` nearer to than the start is, and returns their count (else -1):
-    see ``HorizonMemo``.
-    """
-    if others_r.size == 0:
-        return UNREACHED, -1
-    r0 = start // stride - 1
-    c0 = start % stride - 1
-    horizon = -1
-    n = others_r.size
-    count = 0
-    closer = 0  # the agent found nearer than us last: neighbouring candidates likely share it
-    for k in range(listed.size):
-        v = listed[k]
-        if margin < 0 and candidate[v] == 0:
-            continue
-        r = v // stride - 1
-        c = v % stride - 1
-        mine = abs(r - r0) + abs(c - c0)
-        floor = mine - margin if margin > 0 else mine
-        if abs(r - others_r[closer]) + abs(c - others_c[closer]) < floor:
-            continue
-        nearest_other = UNREACHED
-        for i in range(n):
-            j = closer + i
-            if j >= n:
-                j -= n
-            m = abs(r - others_r[j]) + abs(c - others_c[j])
-            if m < nearest_other:
-                nearest_other = m
-                if m < floor:
-                    closer = j
-                    break
-        if nearest_other < floor:
-            continue
-        if margin >= 0:
-            kept[count] = v
-            count += 1
-        if (
-            candidate[v] != 0
-            and nearest_other > horizon
-            and nearest_other >= max(mine, landmark_gap(v, start, lands))
-        ):
-            horizon = nearest_other
-    return horizon, count if margin >= 0 else -1
-
-
-@njit(cache=True, nogil=True)
-def _search(
-    state: np.ndarray,
-    candidate: np.ndarray,
-    listed: np.ndarray,
-    margin: int,
-    kept: np.ndarray,
-    lands: np.ndarray,
-    start: int,
-    stride: int,
-    battery: float,
-    cost: float,
-    floor: float,
-    best_cost: float,
-    budget: float,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    hold: int,
-    seen: np.ndarray,
-    stamp: int,
-    parent: np.ndarray,
-    queue: np.ndarray,
-    found: np.ndarray,
-    spare: tuple[np.ndarray, np.ndarray, np.ndarray],
-    everyone: np.ndarray,
-) -> tuple[int, int, int]:
-    """Returns (rank, cell) of the best target, or (-1, -1), and the count of
-    cells ``_uncontested_horizon`` kept (-1 if it did not keep any).
-
-    ``found`` and ``spare`` (a second ``seen``, ``queue`` and ``parent``, whose
-    marks are ``_SPARE_MARKS * stamp`` and up) are scratch
-    for the shortcuts: once the first lesser target is known,
-    ``none_uncontested`` may prove that no candidate within the horizon is
-    uncontested, without searching out to it; and when the search has gone
-    far without finding any target but those left to others (in a crowd),
-    ``first_lesser`` may find the first lesser one directly. ``everyone``:
-    every candidate (``listed`` may be a shortlist of those that may be
-    uncontested).
-    """
-    energy = (battery, cost, floor, best_cost, budget)
-    steps = (-stride, stride, 1, -1)
-    best1 = -1
-    best2 = -1
-    # Beyond ``horizon`` no target can be uncontested (rank 0): once the best
-    # lesser target is known, stop there instead of searching the whole map.
-    # Worked out when first needed (most searches end at an uncontested target).
-    horizon = UNREACHED
-    kept_count = -1
-    seen[start] = stamp
-    queue[0] = start
-    head = 0
-    tail = 1
-    # ``distance`` is that of the cells being expanded; ``level_end`` is where
-    # the cells one move farther start in the queue.
-    level_end = 1
-    distance = 0
-    jumped = False
-    while head < tail:
-        if head == level_end:
-            level_end = tail
-            distance += 1
-            if distance + 1 > horizon and (best1 >= 0 or (hold == 0 and best2 >= 0)):
-                break
-            if not jumped and best1 < 0 and hold > 0 and tail > JUMP_AFTER:
-                jumped = True
-                rank, v, d = first_lesser(
-                    state, candidate, everyone, start, stride, hold, others_r, others_c,
-                    lands, energy, found, spare, _SPARE_MARKS * stamp,
-                )  # fmt: skip
-                if rank >= 0:
-                    ours = spare[2]
-                    w = v
-                    while w != start:  # the way there, as this search would leave it
-                        parent[w] = ours[w]
-                        w = ours[w]
-                    if rank == 0:
-                        return 0, v, kept_count
-                    horizon, kept_count = _uncontested_horizon(
-                        candidate, listed, start, stride, others_r, others_c, margin, kept, lands
-                    )
-                    if d > horizon or none_uncontested(
-                        state, candidate, listed, start, stride, others_r, others_c, lands,
-                        energy, found, spare, _SPARE_MARKS * stamp + AMONG_MARKS * JUMP_TRIES,
-                    ):  # fmt: skip
-                        return 1, v, kept_count
-                    # Not proved: search on, as without the shortcut (and find it again).
-        u = queue[head]
-        head += 1
-        d = distance + 1
-        for k in range(4):
-            v = u + steps[k]
-            if state[v] != _FREE or seen[v] == stamp:
-                continue
-            seen[v] = stamp
-            parent[v] = u
-            queue[tail] = v
-            tail += 1
-            if candidate[v] == 0:
-                continue
-            back = lands[v, HOME]
-            if back < UNREACHED and 2.0 * back * best_cost > budget:
-                continue  # out of range for every agent
-            if back >= UNREACHED or battery - cost * (d + back) < floor:
-                continue  # cannot afford it
-            rank = target_rank(v, d, 2, hold, stride, others_r, others_c, lands, energy)
-            if rank == 0:
-                return 0, v, kept_count
-            if rank == 1:
-                if best1 >= 0:
-                    continue
-                best1 = v
-            else:
-                if best2 >= 0:
-                    continue
-                best2 = v
-                if hold > 0:
-                    continue  # left to others: the answer only if nothing ranks better
-            # The first of the next rank: search on only as far as the horizon,
-            # or not at all when no candidate within it is uncontested.
-            horizon, kept_count = _uncontested_horizon(
-                candidate, listed, start, stride, others_r, others_c, margin, kept, lands
-            )
-            if d > horizon or none_uncontested(
-                state, candidate, listed, start, stride, others_r, others_c, lands,
-                energy, found, spare, _SPARE_MARKS * (stamp + 1) - 1,
-            ):  # fmt: skip
-                return rank, v, kept_count
-    if best1 >= 0:
-        return 1, best1, kept_count
-    if best2 >= 0:
-        return 2, best2, kept_count
-    return -1, -1, kept_count
-
-
-@njit(cache=True, nogil=True)
-def _path_search(
-    state: np.ndarray,
-    blocked: np.ndarray,
-    start: int,
-    goal: int,
-    stride: int,
-    bound: int,
-    lands: np.ndarray,
-    seen: np.ndarray,
-    stamp: int,
-    parent: np.ndarray,
-    queue: np.ndarray,
-) -> int:
-    """Breadth-first from ``start`` until ``goal`` is reached (N, S, E, W order, as
-    ``paths.nearest``), over the cells whose distance from the start plus
-    lower bound of the way to the goal (``way_at_least``: the Manhattan
-    distance, and the landmarks' ``lands``) is at most ``bound``: 1 when
-    found (``parent`` then holds the path), 0 when unreachable, else the
-    smallest bound that would let the search go further.
-
-    Neither the Manhattan distance nor a distance from a landmark changes by
-    more than one a move, so every shortest path to a kept cell runs over
-    kept cells: the kept cells are reached in the same order, from the same
-    parents, as with no bound, and the path found is the one the whole
-    search finds. (A cell the landmarks do not reach is cut off from those
-    they do, by any way.)
-    """
-    steps = (-stride, stride, 1, -1)
-    seen[start] = stamp
-    queue[0] = start
-    head = 0
-    tail = 1
-    level_end = 1
-    distance = 0
-    beyond = UNREACHED
-    while head < tail:
-        if head == level_end:
-            level_end = tail
-            distance += 1
-        u = queue[head]
-        head += 1
-        for k in range(4):
-            v = u + steps[k]
-            if state[v] != _FREE or seen[v] == stamp or blocked[v] != 0:
-                continue
-            reach = distance + 1 + way_at_least(v, goal, stride, lands)
-            if reach > bound:
-                if reach < beyond:
-                    beyond = reach
-                continue
-            seen[v] = stamp
-            parent[v] = u
-            if v == goal:
-                return 1
-            queue[tail] = v
-            tail += 1
-    return 0 if beyond == UNREACHED else beyond
-
-
-@njit(cache=True, nogil=True)
-def _unwind(parent: np.ndarray, start: int, goal: int, way: np.ndarray) -> int:
-    """Write the path to ``goal`` that a search from ``start`` left in ``parent``
-    into ``way``, goal first and the start left out; return its length."""
-    length = 0
-    v = goal
-    while v != start:
-        way[length] = v
-        length += 1
-        v = parent[v]
-    return length
-
-
-@njit(cache=True, nogil=True)
-def _moved_within(
-    rows0: np.ndarray,
-    cols0: np.ndarray,
-    others0: np.ndarray,
-    rows: np.ndarray,
-    cols: np.ndarray,
-    working: np.ndarray,
-    slot: int,
-    margin: int,
-) -> bool:
-    """``HorizonMemo``'s test: none of ``others0`` stopped working, and the largest
-    move of one of them (Manhattan) plus the move of ``slot`` is within ``margin``."""
-    farthest = 0
-    for j in range(rows.size):
-        if others0[j]:
-            if not working[j]:
-                return False
-            m = abs(rows[j] - rows0[j]) + abs(cols[j] - cols0[j])
-            if m > farthest:
-                farthest = m
-    return farthest + abs(rows[slot] - rows0[slot]) + abs(cols[slot] - cols0[slot]) <= margin
-
-
-class HorizonMemo:
-    """One agent's shortlist for the horizon pass of its target searches.
-
-    The pass over every uncovered cell costs as much as the search itself on a
-    large map, yet only cells near the agent's own Manhattan region can count.
-    A full pass keeps the cells that no other agent was more than ``MARGIN``
-    nearer to; until the agent and the others it was ranked against have
-    moved more than ``MARGIN`` between them (and while none of those stopped
-    working), no other cell can have become uncontested, so the shortlist
-    plus the cells that became uncovered since gives the same horizon.
-    """
-
-    MARGIN = 16
-
-    def __init__(self, team: Team, slot: int) -> None:
-        self._team = team
-        self._slot = slot
-        #: The team when the cells were kept (rows, columns, the others ranked against);
-        #: None while nothing is kept.
-        self._at: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        self._since = 0  # ``MapBelief.added_count`` when they were kept
-        #: The shortlist: the ``_kept`` cells, then those added since, in the first
-        #: ``_listed`` items (grown by what was added in between, when handed out).
-        self._buffer = np.zeros(0, dtype=np.int64)
-        self._kept = 0
-        self._listed = 0
-
-    def shortlist(self, belief: MapBelief) -> np.ndarray | None:
-        """The cells to pass over, or None when a full pass is due."""
-        if self._at is None:
-            return None
-        team = self._team
-        rows0, cols0, others0 = self._at
-        if not _moved_within(
-            rows0, cols0, others0, team.rows, team.cols, team.working, self._slot, self.MARGIN
-        ):
-            return None
-        size = self._kept + belief.added_count - self._since
-        if size > self._buffer.size:
-            grown = np.zeros(max(size, 2 * self._buffer.size), dtype=np.int64)
-            grown[: self._listed] = self._buffer[: self._listed]
-            self._buffer = grown
-        if size > self._listed:
-            added = np.frombuffer(belief.added, dtype=np.int64)
-            first = self._since + self._listed - self._kept
-            self._buffer[self._listed : size] = added[first : belief.added_count]
-            self._listed = size
-        return self._buffer[:size]
-
-    def remember(self, kept: np.ndarray, belief: MapBelief) -> None:
-        team = self._team
-        self._at = (team.rows.copy(), team.cols.copy(), team.others_mask(self._slot))
-        self._since = belief.added_count
-        if kept.size > self._buffer.size:
-            self._buffer = np.zeros(2 * kept.size, dtype=np.int64)
-        self._buffer[: kept.size] = kept
-        self._kept = self._listed = kept.size
-
-
-class WayMemo:
-    """One agent's candidates near its way, carried along a transit from one
-    check of its target (``TargetSearch._confirm``) to the next.
-
-    The check lists the candidates within the way's length of the agent by
-    Manhattan distance before it tests their lower bounds. Later, on the way
-    to the same target, a cell that was farther than the way then is farther
-    still when the agent has come no farther, by Manhattan distance, than the
-    way has shortened: the distance to it falls by at most what the agent
-    moved. So the cells listed then, those that became free since
-    (``MapBelief.added``) and those claimed then (a claim may be released:
-    claimed cells are no candidates while it lasts) hold every candidate
-    within reach now, and the check passes over them instead of over the
-    uncovered cells of the whole map or of the square around the agent.
-    """
-
-    def __init__(self) -> None:
-        self._goal = -1  # none kept
-        self._start = 0
-        self._moves = 0
-        self._since = 0  # ``MapBelief.added_count`` when they were kept
-        self._claimed = np.zeros(0, dtype=np.int64)
-        #: The cells kept, in the first ``_kept`` items, and room behind them.
-        self._cells = np.zeros(64, dtype=np.int64)
-        self._kept = 0
-        #: A tie the last check settled on the way (``SettledTie``).
-        self.tie = SettledTie()
-
-    def listed(
-        self, start: int, goal: int, moves: int, belief: MapBelief, most: int
-    ) -> np.ndarray | None:
-        """Every candidate within ``moves`` of ``start`` by Manhattan distance, and
-        others, on the way to ``goal``; None when what is kept cannot tell, or
-        would hand out more than ``most`` cells."""
-        if goal != self._goal:
-            return None
-        stride = belief.stride
-        came = abs(start // stride - self._start // stride) + abs(
-            start % stride - self._start % stride
-        )
-        if came > self._moves - moves:
-            return None
-        kept, added = self._kept, belief.added_count - self._since
-        size = kept + added + self._claimed.size
-        if size > most:
-            return None
-        if size > self._cells.size:
-            grown = np.zeros(max(size, 2 * self._cells.size), dtype=np.int64)
-            grown[:kept] = self._cells[:kept]
-            self._cells = grown
-        cells = self._cells
-        new = np.frombuffer(belief.added, dtype=np.int64)
-        cells[kept : kept + added] = new[self._since : belief.added_count]
-        cells[kept + added : size] = self._claimed
-        return cells[:size]
-
-    def room(self, size: int) -> np.ndarray:
-        """Where the next cells to keep are to be written: at least ``size`` items
-        (the cells ``listed`` handed out, when they are read: the pass writes
-        behind its reading)."""
-        if size > self._cells.size:
-            self._cells = np.zeros(max(size, 2 * self._cells.size), dtype=np.int64)
-        return self._cells
-
-    def keep(
-        self, kept: int, start: int, goal: int, moves: int, belief: MapBelief, claimed: np.ndarray
-    ) -> None:
-        """``kept`` cells were written at ``room``'s (-1: the pass stopped short)."""
-        if kept < 0:
-            self._goal = -1
-            return
-        self._goal, self._start, self._moves = goal, start, moves
-        self._since, self._kept, self._claimed = belief.added_count, kept, claimed
 
 
 @dataclass
@@ -494,29 +61,15 @@ class SearchCounts:
     """How often the compiled search took each way to an answer (for the tests and
     the benches: the shortcuts must be taken to be worth their code)."""
 
-    searches: int = 0  # full breadth-first searches (``_search``)
+    searches: int = 0  # full breadth-first searches (``ranked_search``)
     confirmed: int = 0  # answers of ``_confirm``
     carried: int = 0  # settled targets carried on
     way_listed: int = 0  # confirmations that passed over the way memo's cells
 
 
-class AgentMemory(SearchMemory):
-    """What the compiled search keeps of one agent (each part may be None: not kept)."""
-
-    def __init__(
-        self,
-        horizon: HorizonMemo | None = None,
-        way: WayMemo | None = None,
-        settled: SettledTarget | None = None,
-    ) -> None:
-        self.horizon = horizon
-        self.way = way
-        self.settled = settled
-
-
 class CompiledSearch:
     """The target search with compiled kernels (``planner.target_search``): scratch
-    arrays for ``_search``, reused across calls on one belief."""
+    arrays for ``ranked_search``, reused across calls on one belief."""
 
     #: Most candidates ``_confirm`` looks at one by one. On a long way in rooms
     #: the lower bounds leave hundreds, all farther than the target, and the
@@ -549,10 +102,10 @@ class CompiledSearch:
         #: Candidates that might outrank the target on the way (``_confirm``),
         #: with a place for the target.
         self._rivals = np.zeros(self.RIVALS + 1, dtype=np.int64)
-        #: The candidates ``_search``'s shortcuts look at one by one (at most its size).
+        #: The candidates ``ranked_search``'s shortcuts look at one by one (at most its size).
         self._few = np.zeros(self.FEW, dtype=np.int64)
         self._no_near = np.zeros(0, dtype=np.int64)  # ``rivals_listed`` keeps none
-        #: A second ``seen``, ``queue`` and ``parent``, for ``_search``.
+        #: A second ``seen``, ``queue`` and ``parent``, for ``ranked_search``.
         self._spare = (
             np.zeros(size, dtype=np.int32),
             np.zeros(size, dtype=np.int32),
@@ -590,7 +143,7 @@ class CompiledSearch:
                 # Widen the bound until the goal is in: the slack doubles, so the
                 # searches that fall short cost no more than the last one.
                 self.stamp += 1
-                found = _path_search(
+                found = path_search(
                     self.state,
                     self._blocked,
                     start,
@@ -612,7 +165,7 @@ class CompiledSearch:
         return self._unwind(start, goal) if found == 1 else None
 
     def _unwind(self, start: int, goal: int) -> list[int]:
-        length = _unwind(self.parent, start, goal, self._way)
+        length = unwind(self.parent, start, goal, self._way)
         return self._way[length - 1 :: -1].tolist()
 
     def _way_to(self, start: int, cell: int, way: Sequence[int]) -> Sequence[int]:
@@ -620,7 +173,7 @@ class CompiledSearch:
         when it ends there and is as long: the coordinator keeps the way it is on
         then (``Coordinator._take_target``), and a fresh list of a way of
         thousands of moves cost more than the check that found it."""
-        if way and way[-1] == cell and _unwind(self.parent, start, cell, self._way) == len(way):
+        if way and way[-1] == cell and unwind(self.parent, start, cell, self._way) == len(way):
             return way
         return self._unwind(start, cell)
 
@@ -682,7 +235,7 @@ class CompiledSearch:
             # No candidate may be uncontested, however far. The search's horizon
             # pass (which also renews the memo's shortlist) finds none in Manhattan
             # terms, or the search's own proof (``none_uncontested``) rules them out.
-            horizon, kept = _uncontested_horizon(
+            horizon, kept = uncontested_horizon(
                 candidate, listed, start, stride, rows, cols, margin, self._kept, lands
             )
             if kept >= 0 and memo is not None:
@@ -691,7 +244,7 @@ class CompiledSearch:
                 self.stamp += 1
                 if not none_uncontested(
                     self.state, candidate, listed, start, stride, rows, cols, lands, energy,
-                    self._few, self._spare, _SPARE_MARKS * self.stamp,
+                    self._few, self._spare, SPARE_MARKS * self.stamp,
                 ):  # fmt: skip
                     return None
         test = (moves, limit, stride, rows, cols, lands, energy, self._rivals[:-1])
@@ -769,7 +322,7 @@ class CompiledSearch:
 
     def _tie_holds(self, start: int, goal: int, rival: int, moves: int, tie: SettledTie) -> bool:
         """Does ``goal`` still come before ``rival``, as far, as ``tie`` proves (see
-        ``planner.settled_target``)? Carries it on if so."""
+        ``planner.speed.settled_target``)? Carries it on if so."""
         if tie.rival != rival:
             return False
         at = tie.where(start, goal)
@@ -1022,7 +575,7 @@ class CompiledSearch:
                     return found
             self.stamp += 1
             self.counts.searches += 1
-            rank, cell, kept = _search(
+            rank, cell, kept = ranked_search(
                 self.state,
                 mask,
                 listed,
@@ -1068,7 +621,7 @@ class CompiledSearch:
         settled: SettledTarget,
     ) -> bool:
         """Is the hint's target, by the hint's way, what the search would return,
-        as ``settled`` proves (see ``planner.settled_target``)? Carries it on if so."""
+        as ``settled`` proves (see ``planner.speed.settled_target``)? Carries it on if so."""
         goal, way, _ = hint
         battery, cost, floor = energy[0], energy[1], energy[2]
         at = settled.step(start, goal, battery, cost)

@@ -8,19 +8,20 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from planner import bounded_search, fast_search, landmarks
 from planner.belief import UNREACHED, MapBelief
-from planner.fast_search import (
+from planner.grid import CellState
+from planner.paths import bfs_distances, shortest_path
+from planner.settings import SearchShortcuts
+from planner.speed import bounds as lower_bounds
+from planner.speed import compiled_search, landmarks, walk_back, walks
+from planner.speed.compiled_search import (
     AgentMemory,
     CompiledSearch,
     HorizonMemo,
     WayMemo,
-    _uncontested_horizon,
 )
-from planner.grid import CellState
-from planner.paths import bfs_distances, shortest_path
-from planner.settings import SearchShortcuts
-from planner.settled_target import SettledTarget
+from planner.speed.search_kernels import uncontested_horizon
+from planner.speed.settled_target import SettledTarget
 from planner.target_search import Energy, Found, Hint, SearchRequest
 from planner.team import Team
 from sitl_mock import mapgen
@@ -64,7 +65,7 @@ def _horizon(belief: MapBelief, cells: np.ndarray, slot: int, rows, cols, workin
     start = belief.index((int(rows[slot]), int(cols[slot])))
     candidate = np.frombuffer(belief.uncovered_mask, dtype=np.uint8)
     lands = _lands(CompiledSearch(belief))
-    horizon, _ = _uncontested_horizon(
+    horizon, _ = uncontested_horizon(
         candidate, cells, start, belief.stride, rows[others], cols[others], -1, cells, lands
     )
     return horizon
@@ -96,7 +97,7 @@ def test_horizon_shortlist_gives_the_full_pass_horizon(seed: int, agents: int, m
     others = working.copy()
     others[0] = False
     start = belief.index((int(rows[0]), int(cols[0])))
-    _, kept = _uncontested_horizon(
+    _, kept = uncontested_horizon(
         search.candidate,
         listed,
         start,
@@ -152,7 +153,7 @@ def test_memo_asks_for_a_full_pass_when_a_rival_moved_beyond_the_margin() -> Non
     search = CompiledSearch(belief)
     listed = search.uncovered_list[: belief.uncovered_count]
     rows, cols = team.others(0)
-    _, kept = _uncontested_horizon(
+    _, kept = uncontested_horizon(
         search.candidate,
         listed,
         belief.index((0, 0)),
@@ -698,7 +699,7 @@ def _walk_case(seed: int, agents: int):
     free = [i for i in range(len(belief.state)) if belief.state[i] == int(CellState.FREE)]
     start = free[int(rng.integers(0, len(free)))]
     stride = belief.stride
-    bounds = {v: bounded_search.way_at_least(start, v, stride, lands) for v in belief.uncovered}
+    bounds = {v: lower_bounds.way_at_least(start, v, stride, lands) for v in belief.uncovered}
     bounds = {v: b for v, b in sorted(bounds.items()) if b < UNREACHED // 2}  # else unreachable
     others = (rng.integers(0, SIDE, agents), rng.integers(0, SIDE, agents))
     energy = (float(rng.uniform(20.0, 100.0)), float(rng.choice([0.0, 0.5])), 20.0, 0.5, 80.0)
@@ -718,7 +719,7 @@ def _walk_cases(test):
 
 
 def _walked(walk, search: CompiledSearch, lands, targets, start, bound, rank, hold, others, energy):
-    search.stamp += bounded_search.AMONG_MARKS
+    search.stamp += walks.AMONG_MARKS
     found = walk(
         search.state, search.candidate, targets, start, search.belief.stride, bound, rank,
         hold, *others, lands, energy, search.seen, search.stamp, search.parent, search.queue,
@@ -755,8 +756,8 @@ def test_targets_as_far_as_the_bound_are_found_as_breadth_first(
     picked = [v for v in ring if rng.random() < 0.3] + [v for v in beyond if rng.random() < 0.02]
     targets = np.array(rng.permutation(picked), dtype=np.int64)
     case = (search, lands, targets, start, bound, rank, hold, others, energy)
-    walked = _walked(bounded_search.first_tied, *case)
-    assert walked == _walked(bounded_search.first_reached, *case)
+    walked = _walked(walk_back.first_tied, *case)
+    assert walked == _walked(walks.first_reached, *case)
 
 
 @_walk_cases
@@ -771,8 +772,8 @@ def test_first_among_is_what_the_breadth_first_search_reaches(
         return
     targets, bound = _any_targets(rng, bounds)
     case = (search, lands, targets, start, bound, rank, hold, others, energy)
-    walked = _walked(bounded_search.first_among, *case)
-    assert walked == _walked(bounded_search.first_reached, *case)
+    walked = _walked(walks.first_among, *case)
+    assert walked == _walked(walks.first_reached, *case)
 
 
 @_walk_cases
@@ -798,9 +799,9 @@ def test_the_search_back_finds_what_the_search_forward_does(
         others = (np.append(others[0], row - 1 + bounds[nearest]), np.append(others[1], col - 1))
         rank = 0
     case = (search, lands, targets, start, bound, rank, hold, others, energy)
-    back = _walked(bounded_search.first_back, *case)
+    back = _walked(walk_back.first_back, *case)
     if back[0][0] != -2:
-        assert back == _walked(bounded_search.first_reached, *case)
+        assert back == _walked(walks.first_reached, *case)
 
 
 @settings(max_examples=200, deadline=None)
@@ -822,7 +823,7 @@ def test_none_uncontested_only_when_none_is(seed: int, agents: int) -> None:
     listed = search.uncovered_list[: belief.uncovered_count]
     found = search._rivals[:-1]
     search.stamp += 1
-    proved = bounded_search.none_uncontested(
+    proved = walks.none_uncontested(
         search.state, search.candidate, listed, start, stride, *others, _lands(search),
         energy, found, search._spare, search.stamp,
     )  # fmt: skip
@@ -879,7 +880,7 @@ def test_first_lesser_is_the_first_the_search_reaches(seed: int, agents: int, ho
     everyone = search.uncovered_list[: belief.uncovered_count]
     roomy = np.zeros(len(belief.state), dtype=np.int64)  # never too many to list
     search.stamp += 1
-    rank, cell, d = bounded_search.first_lesser(
+    rank, cell, d = walks.first_lesser(
         search.state, search.candidate, everyone, start, belief.stride, hold, *others,
         _lands(search), energy, roomy, search._spare, 8 * search.stamp,
     )  # fmt: skip
@@ -907,7 +908,7 @@ def test_first_lesser_is_the_first_the_search_reaches(seed: int, agents: int, ho
         # the widened bounds (the least lower bound of those that may, plus 7).
         bounds = []
         for v in belief.uncovered:
-            mine = bounded_search.way_at_least(v, start, belief.stride, search.lands)
+            mine = lower_bounds.way_at_least(v, start, belief.stride, search.lands)
             if in_range(v, mine) and near(v) >= min(mine, hold + 1):
                 bounds.append(mine)
         assert expected is None or expected[2] > min(bounds) + 7
@@ -1025,7 +1026,7 @@ def test_surely_affordable_only_when_one_is_by_the_shortest_way(
     energy = (battery, cost, floor, cost, 80.0)
     lands = _lands(CompiledSearch(belief))
     targets = np.array([belief.index(t) for t in picked], dtype=np.int64)
-    sure = bounded_search.surely_affordable(targets, belief.index(at), lands, energy)
+    sure = lower_bounds.surely_affordable(targets, belief.index(at), lands, energy)
     if sure:
         assert any(battery - cost * (from_start[t] + home[t]) >= floor for t in picked)
     if any(battery - cost * (home[at] + 2 * home[t]) >= floor for t in picked):
@@ -1070,8 +1071,8 @@ def test_a_way_round_stands_until_a_shorter_one_opens(monkeypatch) -> None:
     assert len(way) == 25  # down, through the gap at the bottom, and up
     known_at = belief.stamp
     bounded = []
-    among = fast_search.first_among
-    monkeypatch.setattr(fast_search, "first_among", lambda *a: bounded.append(1) or among(*a))
+    among = compiled_search.first_among
+    monkeypatch.setattr(compiled_search, "first_among", lambda *a: bounded.append(1) or among(*a))
 
     belief.mark_free(belief.index((11, 11)))  # the map grows far from any shorter way
     belief.cover((11, 11), 1)
@@ -1120,7 +1121,7 @@ def test_way_memo_holds_every_candidate_in_reach(
     memo = WayMemo()
     candidate[claimed] = 0
     room = memo.room(uncovered.size)
-    _, kept = bounded_search.rivals_listed(
+    _, kept = lower_bounds.rivals_listed(
         candidate, uncovered, start, goal, moves, 0, stride, nobody, nobody, lands, energy,
         search._rivals[:-1], room,
     )  # fmt: skip
