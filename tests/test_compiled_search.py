@@ -55,8 +55,7 @@ def _run(
 
 def _lands(search: CompiledSearch) -> np.ndarray:
     """The search's distances from the landmarks, up to date (as ``run`` has them)."""
-    search.lands = search.landmarks.update()
-    return search.lands
+    return search.update_lands()
 
 
 def _horizon(belief: MapBelief, cells: np.ndarray, slot: int, rows, cols, working) -> int:
@@ -64,10 +63,10 @@ def _horizon(belief: MapBelief, cells: np.ndarray, slot: int, rows, cols, workin
     others[slot] = False
     start = belief.index((int(rows[slot]), int(cols[slot])))
     candidate = np.frombuffer(belief.uncovered_mask, dtype=np.uint8)
-    lands = _lands(CompiledSearch(belief))
-    horizon, _ = uncontested_horizon(
-        candidate, cells, start, belief.stride, rows[others], cols[others], -1, cells, lands
-    )
+    search = CompiledSearch(belief)
+    _lands(search)
+    rivals = (rows[others], cols[others], 0)
+    horizon, _ = uncontested_horizon(candidate, cells, start, search.grid, rivals, -1, cells)
     return horizon
 
 
@@ -97,16 +96,10 @@ def test_horizon_shortlist_gives_the_full_pass_horizon(seed: int, agents: int, m
     others = working.copy()
     others[0] = False
     start = belief.index((int(rows[0]), int(cols[0])))
+    _lands(search)
+    rivals = (rows[others], cols[others], 0)
     _, kept = uncontested_horizon(
-        search.candidate,
-        listed,
-        start,
-        belief.stride,
-        rows[others],
-        cols[others],
-        16,
-        search._kept,
-        _lands(search),
+        search.candidate, listed, start, search.grid, rivals, 16, search._kept
     )
     if kept < 0:
         return  # nobody else at work: no shortlist is kept (the horizon is unbounded)
@@ -153,16 +146,15 @@ def test_memo_asks_for_a_full_pass_when_a_rival_moved_beyond_the_margin() -> Non
     search = CompiledSearch(belief)
     listed = search.uncovered_list[: belief.uncovered_count]
     rows, cols = team.others(0)
+    _lands(search)
     _, kept = uncontested_horizon(
         search.candidate,
         listed,
         belief.index((0, 0)),
-        belief.stride,
-        rows,
-        cols,
+        search.grid,
+        (rows, cols, 0),
         16,
         search._kept,
-        _lands(search),
     )
     assert far_corner not in search._kept[:kept]
     memo = HorizonMemo(team, 0)
@@ -658,7 +650,7 @@ def test_a_way_still_shortest_has_none_shorter(seed: int, known: float, found: f
     known_at = belief.stamp
     for r, c in order[first : first + int(found * (len(order) - first))]:
         belief.mark_free(belief.index((int(r), int(c))))
-    search.lands = search.landmarks.update()  # as ``run`` does before it asks
+    search.update_lands()  # as ``run`` does before it asks
     if search._still_shortest(start, goal, len(way), known_at):
         shortest = search.path(start, goal)
         assert shortest is not None and len(shortest) == len(way)
@@ -720,10 +712,12 @@ def _walk_cases(test):
 
 def _walked(walk, search: CompiledSearch, lands, targets, start, bound, rank, hold, others, energy):
     search.stamp += walks.AMONG_MARKS
+    grid = (search.state, search.belief.stride, lands)
+    scratch = (search.seen, search.parent, search.queue)
+    rivals = (*others, hold)
     found = walk(
-        search.state, search.candidate, targets, start, search.belief.stride, bound, rank,
-        hold, *others, lands, energy, search.seen, search.stamp, search.parent, search.queue,
-    )  # fmt: skip
+        grid, search.candidate, targets, (start, bound, rank, search.stamp), rivals, energy, scratch
+    )
     return found, search._unwind(start, found[1]) if found[1] >= 0 else None
 
 
@@ -813,7 +807,6 @@ def test_none_uncontested_only_when_none_is(seed: int, agents: int) -> None:
     rng = np.random.default_rng(seed)
     belief, walls = _swept_map(rng, seed, rng.uniform(0.3, 0.99))
     search = CompiledSearch(belief)
-    stride = belief.stride
     free = np.argwhere(~walls)
     picks = free[rng.integers(0, len(free), agents + 1)]
     start = belief.index((int(picks[0, 0]), int(picks[0, 1])))
@@ -823,9 +816,10 @@ def test_none_uncontested_only_when_none_is(seed: int, agents: int) -> None:
     listed = search.uncovered_list[: belief.uncovered_count]
     found = search._rivals[:-1]
     search.stamp += 1
+    _lands(search)
     proved = walks.none_uncontested(
-        search.state, search.candidate, listed, start, stride, *others, _lands(search),
-        energy, found, search._spare, search.stamp,
+        search.grid, search.candidate, listed, start, (*others, 0), energy,
+        (found, search._spare, search.stamp),
     )  # fmt: skip
     distance = bfs_distances(belief, start)
     uncontested = []
@@ -880,9 +874,10 @@ def test_first_lesser_is_the_first_the_search_reaches(seed: int, agents: int, ho
     everyone = search.uncovered_list[: belief.uncovered_count]
     roomy = np.zeros(len(belief.state), dtype=np.int64)  # never too many to list
     search.stamp += 1
+    _lands(search)
     rank, cell, d = walks.first_lesser(
-        search.state, search.candidate, everyone, start, belief.stride, hold, *others,
-        _lands(search), energy, roomy, search._spare, 8 * search.stamp,
+        search.grid, search.candidate, everyone, start, (*others, hold), energy,
+        (roomy, search._spare, 8 * search.stamp),
     )  # fmt: skip
     order, parent = _breadth_first(belief, start)
     depth = {start: 0}
@@ -1115,15 +1110,15 @@ def test_way_memo_holds_every_candidate_in_reach(
     start, goal = (int(v) for v in rng.choice(uncovered, 2, replace=False))
     claimed = rng.choice(uncovered, 5, replace=False).astype(np.int64)
     claimed = claimed[claimed != goal]
-    lands = _lands(search)
+    _lands(search)
     energy = (100.0, 0.0, 0.0, 0.0, 100.0)
     nobody = np.zeros(0, dtype=np.int64)
     memo = WayMemo()
     candidate[claimed] = 0
     room = memo.room(uncovered.size)
     _, kept = lower_bounds.rivals_listed(
-        candidate, uncovered, start, goal, moves, 0, stride, nobody, nobody, lands, energy,
-        search._rivals[:-1], room,
+        candidate, uncovered, (start, goal, moves, 0), search.grid, (nobody, nobody, 0), energy,
+        (search._rivals[:-1], room),
     )  # fmt: skip
     candidate[claimed] = 1  # released: uncovered, as they were
     memo.keep(kept, start, goal, moves, belief, claimed)
@@ -1183,7 +1178,7 @@ def test_paths_are_those_of_the_plain_search(
         patch.setattr(landmarks, "DETOUR", 0.0)
         for k in order[: len(free) // 3]:
             belief.mark_free(free[k])
-        search.lands = search.landmarks.update()
+        search.update_lands()
         for k in order[len(free) // 3 : int(known * len(free))]:
             belief.mark_free(free[k])
         reached = [i for i in free if belief.charger_dist[i] < UNREACHED]

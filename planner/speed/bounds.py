@@ -14,6 +14,7 @@ from numba import njit
 
 from planner.belief import UNREACHED
 from planner.grid import CellState
+from planner.speed.kernel_args import EnergyTerms, Grid, Rivals
 from planner.speed.landmarks import HOME
 
 _FREE = int(CellState.FREE)
@@ -56,15 +57,7 @@ def way_within(u: int, v: int, moves: int, stride: int, lands: np.ndarray) -> bo
 
 @njit(cache=True, nogil=True)
 def may_rival(
-    v: int,
-    mine: int,
-    limit: int,
-    stride: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    closer: int,
-    lands: np.ndarray,
-    energy: tuple[float, float, float, float, float],
+    v: int, mine: int, limit: int, grid: Grid, rivals: Rivals, closer: int, energy: EnergyTerms
 ) -> int:
     """Could candidate ``v``, ``mine`` moves or more away, be a target that no
     other agent is nearer to than ``min(its distance, limit)``? Not when
@@ -73,6 +66,8 @@ def may_rival(
     it). Not when it is out of range or cannot be afforded even at ``mine``
     moves (``_search``'s tests, with ``energy`` its battery, cost, floor,
     best_cost and budget): ``closer``. Else -1."""
+    _, stride, lands = grid
+    others_r, others_c, _ = rivals
     bar = min(mine, limit)
     r = v // stride - 1
     c = v % stride - 1
@@ -96,17 +91,11 @@ def may_rival(
 def rivals_listed(
     candidate: np.ndarray,
     listed: np.ndarray,
-    start: int,
-    goal: int,
-    reach: int,
-    limit: int,
-    stride: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    lands: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-    found: np.ndarray,
-    near: np.ndarray,
+    ask: tuple[int, int, int, int],
+    grid: Grid,
+    rivals: Rivals,
+    energy: EnergyTerms,
+    out: tuple[np.ndarray, np.ndarray],
 ) -> tuple[int, int]:
     """The listed candidates but ``goal`` that may be within ``reach`` moves of
     the start (``way_at_least``, its Manhattan part first: it rules most out)
@@ -114,7 +103,12 @@ def rivals_listed(
     there are more); second, the count of the listed candidates but ``goal``
     within ``reach`` by Manhattan distance, put in ``near`` when it has room for
     every listed cell (else left alone; -1 when the pass stopped at too many
-    rivals). ``near`` may be ``listed`` itself: it is written behind the reading."""
+    rivals). ``near`` may be ``listed`` itself: it is written behind the reading.
+    ``ask``: the start, ``goal``, ``reach`` and the ``limit`` of ``may_rival``;
+    ``out``: ``found`` and ``near``."""
+    start, goal, reach, limit = ask
+    found, near = out
+    _, stride, lands = grid
     r0 = start // stride
     c0 = start % stride
     keep = near.size >= listed.size
@@ -132,7 +126,7 @@ def rivals_listed(
         mine = max(mine, landmark_gap(v, start, lands))
         if mine > reach:
             continue
-        closer = may_rival(v, mine, limit, stride, others_r, others_c, closer, lands, energy)
+        closer = may_rival(v, mine, limit, grid, rivals, closer, energy)
         if closer < 0:
             if count == found.size:
                 return count, -1
@@ -162,19 +156,11 @@ def in_square(candidate: np.ndarray, start: int, reach: int, stride: int, out: n
 
 
 @njit(cache=True, nogil=True)
-def target_rank(
-    v: int,
-    d: int,
-    rank: int,
-    hold: int,
-    stride: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    lands: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-) -> int:
+def target_rank(v: int, d: int, rank: int, grid: Grid, rivals: Rivals, energy: EnergyTerms) -> int:
     """The rank of candidate ``v`` reached at ``d`` moves, as ``_search`` ranks it,
     or -1 when it is worse than ``rank`` or the agent cannot afford it there."""
+    _, stride, lands = grid
+    others_r, others_c, hold = rivals
     battery, cost, floor, _, _ = energy
     if battery - cost * (d + lands[v, HOME]) < floor:
         return -1

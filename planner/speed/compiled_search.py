@@ -27,6 +27,7 @@ from planner.speed.bounds import (
     surely_affordable,
     way_at_least,
 )
+from planner.speed.kernel_args import Grid, Scratch
 from planner.speed.landmarks import Landmarks
 from planner.speed.memory import AgentMemory, HorizonMemo, WayMemo
 from planner.speed.search_kernels import (
@@ -121,6 +122,15 @@ class CompiledSearch:
         #: The distances from the landmarks (``Landmarks.lands``), brought up to
         #: date at the start of each ``run`` and ``path``.
         self.lands = self.landmarks.lands
+        #: The map as the kernels read it (``kernel_args.Grid``), with ``lands``.
+        self.grid: Grid = (self.state, belief.stride, self.lands)
+        self._scratch: Scratch = (self.seen, self.parent, self.queue)
+
+    def update_lands(self) -> np.ndarray:
+        """Bring the distances from the landmarks up to date (``lands``, ``grid``)."""
+        self.lands = self.landmarks.update()
+        self.grid = (self.state, self.belief.stride, self.lands)
+        return self.lands
 
     def path(
         self, start: int, goal: int, blocked: Iterable[int] = (), longest: int | None = None
@@ -131,7 +141,7 @@ class CompiledSearch:
         if start == goal:
             return []
         stride = self.belief.stride
-        self.lands = self.landmarks.update()
+        self.update_lands()
         shortest = int(way_at_least(start, goal, stride, self.lands))
         if longest is not None and longest < shortest:
             return None  # surely none (a bound under 1 would also read as found)
@@ -144,17 +154,7 @@ class CompiledSearch:
                 # searches that fall short cost no more than the last one.
                 self.stamp += 1
                 found = path_search(
-                    self.state,
-                    self._blocked,
-                    start,
-                    goal,
-                    stride,
-                    bound,
-                    self.lands,
-                    self.seen,
-                    self.stamp,
-                    self.parent,
-                    self.queue,
+                    self.grid, self._blocked, start, goal, bound, self._scratch, self.stamp
                 )
                 if found <= 1 or longest is not None:
                     break
@@ -213,7 +213,6 @@ class CompiledSearch:
         if candidate[goal] == 0:
             return None
         moves = len(way)
-        lands = self.lands
         battery, cost, floor, best_cost, budget = energy
         back = int(self.home[goal])
         if back >= UNREACHED or 2.0 * back * best_cost > budget:
@@ -222,6 +221,7 @@ class CompiledSearch:
             return None  # perhaps a shorter way now: let the search tell
         stride = self.belief.stride
         rows, cols = others
+        rivals = (rows, cols, hold)
         near = nearest_manhattan(rows, cols, goal // stride - 1, goal % stride - 1)
         if rows.size == 0 or near >= moves:
             rank, limit = 0, UNREACHED
@@ -236,25 +236,25 @@ class CompiledSearch:
             # pass (which also renews the memo's shortlist) finds none in Manhattan
             # terms, or the search's own proof (``none_uncontested``) rules them out.
             horizon, kept = uncontested_horizon(
-                candidate, listed, start, stride, rows, cols, margin, self._kept, lands
+                candidate, listed, start, self.grid, rivals, margin, self._kept
             )
             if kept >= 0 and memo is not None:
                 memo.remember(self._kept[:kept], self.belief)
             if horizon >= 0:
                 self.stamp += 1
-                if not none_uncontested(
-                    self.state, candidate, listed, start, stride, rows, cols, lands, energy,
-                    self._few, self._spare, SPARE_MARKS * self.stamp,
-                ):  # fmt: skip
+                aside = (self._few, self._spare, SPARE_MARKS * self.stamp)
+                if not none_uncontested(self.grid, candidate, listed, start, rivals, energy, aside):
                     return None
-        test = (moves, limit, stride, rows, cols, lands, energy, self._rivals[:-1])
+        ask = (start, goal, moves, limit)
+        found_in = self._rivals[:-1]
         # A listed cell costs about LIST_COST cells of the square around the start
         # read row by row (its row and column are worked out by division; the
         # square's few candidates are then passed over as a list).
         square = 2 * moves * moves
         if rank == 0 and listed.size * self.LIST_COST < square:
             # Cells off ``listed`` are surely contested: rank 0 needs only these.
-            count = rivals_listed(candidate, listed, start, goal, *test, self._no_near)[0]
+            out = (found_in, self._no_near)
+            count = rivals_listed(candidate, listed, ask, self.grid, rivals, energy, out)[0]
         else:
             # The memo's cells, unless the uncovered cells or the square are fewer.
             most = min(self.belief.uncovered_count, square // self.LIST_COST)
@@ -268,7 +268,8 @@ class CompiledSearch:
                 else:
                     pool = self._near[: in_square(candidate, start, moves, stride, self._near)]
             room = self._no_near if way_memo is None else way_memo.room(pool.size)
-            count, kept = rivals_listed(candidate, pool, start, goal, *test, room)
+            out = (found_in, room)
+            count, kept = rivals_listed(candidate, pool, ask, self.grid, rivals, energy, out)
             if way_memo is not None:
                 way_memo.keep(kept, start, goal, moves, self.belief, claimed)
         if count == self.RIVALS:
@@ -367,24 +368,9 @@ class CompiledSearch:
         there left in ``parent``."""
         stamp = self.stamp + 1
         self.stamp += AMONG_MARKS
-        return first_among(
-            self.state,
-            self.candidate,
-            targets,
-            start,
-            self.belief.stride,
-            bound,
-            rank,
-            hold,
-            others[0],
-            others[1],
-            self.lands,
-            energy,
-            self.seen,
-            stamp,
-            self.parent,
-            self.queue,
-        )
+        walk = (start, bound, rank, stamp)
+        rivals = (others[0], others[1], hold)
+        return first_among(self.grid, self.candidate, targets, walk, rivals, energy, self._scratch)
 
     def _all_left_to_others(
         self,
@@ -408,10 +394,12 @@ class CompiledSearch:
         """
         candidate, full = self.candidate, self.uncovered_list[: self.belief.uncovered_count]
         found = self._rivals[: self.LEFT_TO_OTHERS]
-        team = (self.belief.stride, others[0], others[1], self.lands, energy, found)
-        if rivals_listed(candidate, full, start, -1, UNREACHED, hold + 1, *team, self._no_near)[0]:
+        grid, rivals, out = self.grid, (others[0], others[1], hold), (found, self._no_near)
+        better = (start, -1, UNREACHED, hold + 1)
+        if rivals_listed(candidate, full, better, grid, rivals, energy, out)[0]:
             return False, None  # some may rank better
-        count = rivals_listed(candidate, full, start, -1, UNREACHED, 0, *team, self._no_near)[0]
+        left = (start, -1, UNREACHED, 0)
+        count = rivals_listed(candidate, full, left, grid, rivals, energy, out)[0]
         if count == self.LEFT_TO_OTHERS:
             return False, None
         targets = found[:count]
@@ -505,7 +493,7 @@ class CompiledSearch:
         along the ``hint`` while nothing it rests on changed, and renewed by
         each check (``pool`` None only).
         With ``hold`` > 0, rank 2 is always ``HELD_BACK``."""
-        self.lands = self.landmarks.update()
+        self.update_lands()
         energy = (battery, cost, floor, best_cost, budget)
         if settled is None or pool is not None or others[0].size:
             # Ranked against others: nothing is settled (``_carried`` would refuse it).
@@ -536,7 +524,6 @@ class CompiledSearch:
         way_memo: WayMemo | None,
     ) -> Found | None:
         """``run`` without the settled target."""
-        battery, cost, floor, best_cost, budget = energy
         self._alone = False
         margin = -1
         if pool is None:
@@ -575,30 +562,18 @@ class CompiledSearch:
                     return found
             self.stamp += 1
             self.counts.searches += 1
+            everyone = (
+                self.uncovered_list[: self.belief.uncovered_count] if pool is None else listed
+            )
             rank, cell, kept = ranked_search(
-                self.state,
-                mask,
-                listed,
-                margin,
-                self._kept,
-                self.lands,
+                self.grid,
+                (mask, listed, everyone),
                 start,
-                self.belief.stride,
-                battery,
-                cost,
-                floor,
-                best_cost,
-                budget,
-                others[0],
-                others[1],
-                hold,
-                self.seen,
+                energy,
+                (others[0], others[1], hold),
+                self._scratch,
                 self.stamp,
-                self.parent,
-                self.queue,
-                self._few,
-                self._spare,
-                self.uncovered_list[: self.belief.uncovered_count] if pool is None else listed,
+                (margin, self._kept, self._few, self._spare),
             )
         finally:
             mask[claimed] = saved

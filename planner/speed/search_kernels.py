@@ -20,6 +20,7 @@ from planner.speed.bounds import (
     target_rank,
     way_at_least,
 )
+from planner.speed.kernel_args import EnergyTerms, Grid, Pool, Rivals, Scratch, SearchAside
 from planner.speed.landmarks import HOME
 from planner.speed.walks import (
     AMONG_MARKS,
@@ -40,12 +41,10 @@ def uncontested_horizon(
     candidate: np.ndarray,
     listed: np.ndarray,
     start: int,
-    stride: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
+    grid: Grid,
+    rivals: Rivals,
     margin: int,
     kept: np.ndarray,
-    lands: np.ndarray,
 ) -> tuple[int, int]:
     """The largest distance at which a candidate could still be uncontested.
 
@@ -63,6 +62,8 @@ def uncontested_horizon(
     ``margin`` nearer to than the start is, and returns their count (else -1):
     see ``HorizonMemo``.
     """
+    _, stride, lands = grid
+    others_r, others_c, _ = rivals
     if others_r.size == 0:
         return UNREACHED, -1
     r0 = start // stride - 1
@@ -108,44 +109,34 @@ def uncontested_horizon(
 
 @njit(cache=True, nogil=True)
 def ranked_search(
-    state: np.ndarray,
-    candidate: np.ndarray,
-    listed: np.ndarray,
-    margin: int,
-    kept: np.ndarray,
-    lands: np.ndarray,
+    grid: Grid,
+    pool: Pool,
     start: int,
-    stride: int,
-    battery: float,
-    cost: float,
-    floor: float,
-    best_cost: float,
-    budget: float,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    hold: int,
-    seen: np.ndarray,
+    energy: EnergyTerms,
+    rivals: Rivals,
+    scratch: Scratch,
     stamp: int,
-    parent: np.ndarray,
-    queue: np.ndarray,
-    found: np.ndarray,
-    spare: tuple[np.ndarray, np.ndarray, np.ndarray],
-    everyone: np.ndarray,
+    aside: SearchAside,
 ) -> tuple[int, int, int]:
     """Returns (rank, cell) of the best target, or (-1, -1), and the count of
     cells ``uncontested_horizon`` kept (-1 if it did not keep any).
 
-    ``found`` and ``spare`` (a second ``seen``, ``queue`` and ``parent``, whose
-    marks are ``SPARE_MARKS * stamp`` and up) are scratch
-    for the shortcuts: once the first lesser target is known,
-    ``none_uncontested`` may prove that no candidate within the horizon is
-    uncontested, without searching out to it; and when the search has gone
-    far without finding any target but those left to others (in a crowd),
-    ``first_lesser`` may find the first lesser one directly. ``everyone``:
-    every candidate (``listed`` may be a shortlist of those that may be
-    uncontested).
+    ``pool``: the candidates' mask, the cells the horizon pass reads (``listed``:
+    perhaps a shortlist of those that may be uncontested) and every candidate.
+    ``aside``: the horizon pass's ``margin`` and ``kept`` (``HorizonMemo``), and
+    scratch for the shortcuts, a list and a second ``seen``, ``queue`` and
+    ``parent`` whose marks are ``SPARE_MARKS * stamp`` and up: once the first
+    lesser target is known, ``none_uncontested`` may prove that no candidate
+    within the horizon is uncontested, without searching out to it; and when
+    the search has gone far without finding any target but those left to
+    others (in a crowd), ``first_lesser`` may find the first lesser one
+    directly (``_lesser_first``).
     """
-    energy = (battery, cost, floor, best_cost, budget)
+    state, stride, lands = grid
+    candidate = pool[0]
+    seen, parent, queue = scratch
+    battery, cost, floor, best_cost, budget = energy
+    hold = rivals[2]
     steps = (-stride, stride, 1, -1)
     best1 = -1
     best2 = -1
@@ -171,27 +162,11 @@ def ranked_search(
                 break
             if not jumped and best1 < 0 and hold > 0 and tail > JUMP_AFTER:
                 jumped = True
-                rank, v, d = first_lesser(
-                    state, candidate, everyone, start, stride, hold, others_r, others_c,
-                    lands, energy, found, spare, SPARE_MARKS * stamp,
-                )  # fmt: skip
+                rank, v, horizon, kept_count = _lesser_first(
+                    grid, pool, start, energy, rivals, parent, stamp, aside
+                )
                 if rank >= 0:
-                    ours = spare[2]
-                    w = v
-                    while w != start:  # the way there, as this search would leave it
-                        parent[w] = ours[w]
-                        w = ours[w]
-                    if rank == 0:
-                        return 0, v, kept_count
-                    horizon, kept_count = uncontested_horizon(
-                        candidate, listed, start, stride, others_r, others_c, margin, kept, lands
-                    )
-                    if d > horizon or none_uncontested(
-                        state, candidate, listed, start, stride, others_r, others_c, lands,
-                        energy, found, spare, SPARE_MARKS * stamp + AMONG_MARKS * JUMP_TRIES,
-                    ):  # fmt: skip
-                        return 1, v, kept_count
-                    # Not proved: search on, as without the shortcut (and find it again).
+                    return rank, v, kept_count
         u = queue[head]
         head += 1
         d = distance + 1
@@ -210,7 +185,7 @@ def ranked_search(
                 continue  # out of range for every agent
             if back >= UNREACHED or battery - cost * (d + back) < floor:
                 continue  # cannot afford it
-            rank = target_rank(v, d, 2, hold, stride, others_r, others_c, lands, energy)
+            rank = target_rank(v, d, 2, grid, rivals, energy)
             if rank == 0:
                 return 0, v, kept_count
             if rank == 1:
@@ -225,13 +200,11 @@ def ranked_search(
                     continue  # left to others: the answer only if nothing ranks better
             # The first of the next rank: search on only as far as the horizon,
             # or not at all when no candidate within it is uncontested.
-            horizon, kept_count = uncontested_horizon(
-                candidate, listed, start, stride, others_r, others_c, margin, kept, lands
+            mark = SPARE_MARKS * (stamp + 1) - 1
+            horizon, kept_count, settled = _settled_at(
+                grid, pool, start, energy, rivals, aside, d, mark
             )
-            if d > horizon or none_uncontested(
-                state, candidate, listed, start, stride, others_r, others_c, lands,
-                energy, found, spare, SPARE_MARKS * (stamp + 1) - 1,
-            ):  # fmt: skip
+            if settled:
                 return rank, v, kept_count
     if best1 >= 0:
         return 1, best1, kept_count
@@ -241,18 +214,69 @@ def ranked_search(
 
 
 @njit(cache=True, nogil=True)
-def path_search(
-    state: np.ndarray,
-    blocked: np.ndarray,
+def _settled_at(
+    grid: Grid,
+    pool: Pool,
     start: int,
-    goal: int,
-    stride: int,
-    bound: int,
-    lands: np.ndarray,
-    seen: np.ndarray,
-    stamp: int,
+    energy: EnergyTerms,
+    rivals: Rivals,
+    aside: SearchAside,
+    d: int,
+    mark: int,
+) -> tuple[int, int, bool]:
+    """``uncontested_horizon``'s (horizon, kept count), and whether a lesser target
+    ``d`` moves away is the answer: beyond the horizon, or no candidate at all is
+    uncontested (``none_uncontested``, its marks from ``mark``)."""
+    candidate, listed, _ = pool
+    margin, kept, found, spare = aside
+    horizon, kept_count = uncontested_horizon(candidate, listed, start, grid, rivals, margin, kept)
+    if d > horizon:
+        return horizon, kept_count, True
+    none = none_uncontested(grid, candidate, listed, start, rivals, energy, (found, spare, mark))
+    return horizon, kept_count, none
+
+
+@njit(cache=True, nogil=True)
+def _lesser_first(
+    grid: Grid,
+    pool: Pool,
+    start: int,
+    energy: EnergyTerms,
+    rivals: Rivals,
     parent: np.ndarray,
-    queue: np.ndarray,
+    stamp: int,
+    aside: SearchAside,
+) -> tuple[int, int, int, int]:
+    """The shortcut of a search gone far in a crowd: the first lesser target
+    (``first_lesser``) as (rank, cell) when it is the search's answer, else rank
+    -1; then the horizon and the kept count as the search goes on with them.
+    The way to it is written into ``parent`` as the search would leave it."""
+    candidate, listed, everyone = pool
+    margin, kept, found, spare = aside
+    marks = (found, spare, SPARE_MARKS * stamp)
+    rank, v, d = first_lesser(grid, candidate, everyone, start, rivals, energy, marks)
+    if rank < 0:
+        return -1, -1, UNREACHED, -1
+    ours = spare[2]
+    w = v
+    while w != start:  # the way there, as this search would leave it
+        parent[w] = ours[w]
+        w = ours[w]
+    if rank == 0:
+        return 0, v, UNREACHED, -1
+    horizon, kept_count = uncontested_horizon(candidate, listed, start, grid, rivals, margin, kept)
+    mark = SPARE_MARKS * stamp + AMONG_MARKS * JUMP_TRIES
+    if d > horizon or none_uncontested(
+        grid, candidate, listed, start, rivals, energy, (found, spare, mark)
+    ):
+        return 1, v, horizon, kept_count
+    # Not proved: search on, as without the shortcut (and find it again).
+    return -1, -1, horizon, kept_count
+
+
+@njit(cache=True, nogil=True)
+def path_search(
+    grid: Grid, blocked: np.ndarray, start: int, goal: int, bound: int, scratch: Scratch, stamp: int
 ) -> int:
     """Breadth-first from ``start`` until ``goal`` is reached (N, S, E, W order, as
     ``paths.nearest``), over the cells whose distance from the start plus
@@ -268,6 +292,8 @@ def path_search(
     search finds. (A cell the landmarks do not reach is cut off from those
     they do, by any way.)
     """
+    state, stride, lands = grid
+    seen, parent, queue = scratch
     steps = (-stride, stride, 1, -1)
     seen[start] = stamp
     queue[0] = start

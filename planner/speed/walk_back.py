@@ -12,6 +12,7 @@ from numba import njit
 from planner.belief import UNREACHED
 from planner.grid import CellState
 from planner.speed.bounds import target_rank, way_at_least, way_within
+from planner.speed.kernel_args import EnergyTerms, Grid, Rivals, Scratch, Walk
 
 _FREE = int(CellState.FREE)
 
@@ -56,17 +57,7 @@ def mostly_away(targets: np.ndarray, start: int, stride: int, lands: np.ndarray)
 
 @njit(cache=True, nogil=True)
 def descent(
-    state: np.ndarray,
-    taken: np.ndarray,
-    ranks: np.ndarray,
-    start: int,
-    stride: int,
-    bound: int,
-    lands: np.ndarray,
-    seen: np.ndarray,
-    stamp: int,
-    parent: np.ndarray,
-    queue: np.ndarray,
+    grid: Grid, taken: np.ndarray, ranks: np.ndarray, walk: Walk, scratch: Scratch
 ) -> tuple[int, int]:
     """``first_tied``'s answer found from the other end: a breadth-first search
     from the ``taken`` targets (their ranks in ``ranks``) out to the start
@@ -77,9 +68,10 @@ def descent(
     beyond the start); the search back from the targets only the rooms on
     the ways to them.
     """
-    if search_back(state, taken, start, stride, bound, lands, seen, stamp, parent, queue) < 0:
+    start, bound, _, stamp = walk
+    if search_back(grid, taken, walk, scratch) < 0:
         return -1, -1
-    v = descend(start, bound, stride, seen, stamp, parent, queue)
+    v = descend(start, bound, grid[1], scratch, stamp)
     for i in range(taken.size):
         if taken[i] == v:
             return ranks[i], v
@@ -87,23 +79,16 @@ def descent(
 
 
 @njit(cache=True, nogil=True)
-def search_back(
-    state: np.ndarray,
-    sources: np.ndarray,
-    start: int,
-    stride: int,
-    bound: int,
-    lands: np.ndarray,
-    seen: np.ndarray,
-    stamp: int,
-    parent: np.ndarray,
-    queue: np.ndarray,
-) -> int:
+def search_back(grid: Grid, sources: np.ndarray, walk: Walk, scratch: Scratch) -> int:
     """The distance from the start to the nearest of the ``sources`` (not the
     start), or -1 when none is within ``bound``: a breadth-first search from
     them all, over the cells whose lower bound to the start is within what is
     left of ``bound`` (every cell of a way that short is). Its depth, each
-    cell's distance from the nearest source, is left in ``parent``."""
+    cell's distance from the nearest source, is left in ``parent``. (``walk``'s
+    rank is not read.)"""
+    start, bound, _, stamp = walk
+    state, stride, lands = grid
+    seen, parent, queue = scratch
     steps = (-stride, stride, 1, -1)
     tail = 0
     for i in range(sources.size):
@@ -140,15 +125,7 @@ def search_back(
 
 
 @njit(cache=True, nogil=True)
-def descend(
-    start: int,
-    depth: int,
-    stride: int,
-    seen: np.ndarray,
-    stamp: int,
-    parent: np.ndarray,
-    queue: np.ndarray,
-) -> int:
+def descend(start: int, depth: int, stride: int, scratch: Scratch, stamp: int) -> int:
     """After ``search_back`` found the start ``depth`` moves from its sources:
     the source the breadth-first search from the start reaches first at that
     distance, ``parent`` then holding the way there.
@@ -159,6 +136,7 @@ def descend(
     start, the first of N, S, E, W one move nearer to the sources, in turn,
     is that way, and never a step back: no dead end is entered.
     """
+    seen, parent, queue = scratch
     steps = (-stride, stride, 1, -1)
     v = start
     for d in range(depth):
@@ -178,22 +156,13 @@ def descend(
 
 @njit(cache=True, nogil=True)
 def first_back(
-    state: np.ndarray,
+    grid: Grid,
     candidate: np.ndarray,
     targets: np.ndarray,
-    start: int,
-    stride: int,
-    bound: int,
-    rank: int,
-    hold: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    lands: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-    seen: np.ndarray,
-    stamp: int,
-    parent: np.ndarray,
-    queue: np.ndarray,
+    walk: Walk,
+    rivals: Rivals,
+    energy: EnergyTerms,
+    scratch: Scratch,
 ) -> tuple[int, int]:
     """``first_reached`` found from the other end (``search_back``, ``descend``),
     or (-2, -1) when only ``first_reached`` can tell.
@@ -206,6 +175,8 @@ def first_back(
     agent can take it there. Else (seldom) that search goes on past it, and
     only it can tell.
     """
+    start, bound, rank, stamp = walk
+    _, stride, lands = grid
     sources = np.empty(targets.size, dtype=np.int64)
     count = 0
     for i in range(targets.size):
@@ -215,36 +186,26 @@ def first_back(
         at_least = way_at_least(start, t, stride, lands)
         if at_least > bound:
             continue
-        if target_rank(t, at_least, rank, hold, stride, others_r, others_c, lands, energy) >= 0:
+        if target_rank(t, at_least, rank, grid, rivals, energy) >= 0:
             sources[count] = t
             count += 1
-    near = search_back(state, sources[:count], start, stride, bound, lands, seen, stamp,
-                       parent, queue)  # fmt: skip
+    near = search_back(grid, sources[:count], walk, scratch)
     if near < 0:
         return -1, -1
-    v = descend(start, near, stride, seen, stamp, parent, queue)
-    found = target_rank(v, near, rank, hold, stride, others_r, others_c, lands, energy)
+    v = descend(start, near, stride, scratch, stamp)
+    found = target_rank(v, near, rank, grid, rivals, energy)
     return (found, v) if found >= 0 else (-2, -1)
 
 
 @njit(cache=True, nogil=True)
 def first_tied(
-    state: np.ndarray,
+    grid: Grid,
     candidate: np.ndarray,
     targets: np.ndarray,
-    start: int,
-    stride: int,
-    bound: int,
-    rank: int,
-    hold: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    lands: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-    seen: np.ndarray,
-    stamp: int,
-    parent: np.ndarray,
-    stack: np.ndarray,
+    walk: Walk,
+    rivals: Rivals,
+    energy: EnergyTerms,
+    scratch: Scratch,
 ) -> tuple[int, int]:
     """``first_reached`` when no target is nearer than ``bound`` by the lower
     bounds of ``way_at_least``, without visiting the cells between: the
@@ -265,6 +226,9 @@ def first_tied(
     nowhere by any way there), finds the first of these ways: the same
     target, by the same path.
     """
+    start, bound, rank, stamp = walk
+    state, stride, lands = grid
+    seen, parent, stack = scratch
     n = targets.size
     # The targets that may be taken (reached at ``bound`` moves, it is their rank there).
     taken = np.empty(n, dtype=np.int64)
@@ -274,7 +238,7 @@ def first_tied(
         t = targets[i]
         if candidate[t] == 0 or way_at_least(start, t, stride, lands) != bound:
             continue
-        found = target_rank(t, bound, rank, hold, stride, others_r, others_c, lands, energy)
+        found = target_rank(t, bound, rank, grid, rivals, energy)
         if found >= 0:
             taken[count] = t
             ranks[count] = found
@@ -282,8 +246,7 @@ def first_tied(
     if count == 0:
         return -1, -1
     if mostly_away(taken[:count], start, stride, lands):
-        return descent(state, taken[:count], ranks, start, stride, bound, lands, seen, stamp,
-                       parent, stack)  # fmt: skip
+        return descent(grid, taken[:count], ranks, walk, scratch)
     steps = (-stride, stride, 1, -1)
     tried = np.zeros(bound + 1, dtype=np.int8)  # the moves tried from each cell of the walk
     seen[start] = stamp

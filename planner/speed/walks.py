@@ -23,6 +23,7 @@ from planner.speed.bounds import (
     way_at_least,
     way_within,
 )
+from planner.speed.kernel_args import Aside, EnergyTerms, Grid, Rivals, Scratch, Walk
 from planner.speed.walk_back import first_back, first_tied
 
 _FREE = int(CellState.FREE)
@@ -38,25 +39,19 @@ AMONG_MARKS = 3
 
 @njit(cache=True, nogil=True)
 def first_lesser(
-    state: np.ndarray,
+    grid: Grid,
     candidate: np.ndarray,
     everyone: np.ndarray,
     start: int,
-    stride: int,
-    hold: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    lands: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-    found: np.ndarray,
-    spare: tuple[np.ndarray, np.ndarray, np.ndarray],
-    mark: int,
+    rivals: Rivals,
+    energy: EnergyTerms,
+    aside: Aside,
 ) -> tuple[int, int, int]:
     """The first candidate ``_search`` reaches that ranks 1 or better (within
     ``hold`` of no other agent nearer to it, or uncontested) as (rank, cell,
     distance); (-1, -1, -1) when it is left to the search. The way there is
-    left in ``spare``'s ``parent``; its ``seen`` marked with ``mark`` to
-    ``mark + AMONG_MARKS * JUMP_TRIES - 1``.
+    left in ``aside``'s ``parent``; its ``seen`` marked with its mark to
+    that mark ``+ AMONG_MARKS * JUMP_TRIES - 1``.
 
     In a crowd every candidate near the agent is left to another, and the
     search reaches a great part of the map before it finds one that is not,
@@ -69,7 +64,10 @@ def first_lesser(
     bound widens from ``B`` until one is found (on open maps, nearly always at
     ``B``) or the tries run out, or too many lie within it to list.
     """
+    found, spare, mark = aside
     seen, queue, parent = spare
+    _, stride, lands = grid
+    hold = rivals[2]
     limit = hold + 1
     closer = 0
     least = UNREACHED
@@ -80,7 +78,7 @@ def first_lesser(
         mine = way_at_least(v, start, stride, lands)
         if mine >= least:
             continue
-        closer = may_rival(v, mine, limit, stride, others_r, others_c, closer, lands, energy)
+        closer = may_rival(v, mine, limit, grid, rivals, closer, energy)
         if closer < 0:
             least = mine
             closer = 0
@@ -89,16 +87,16 @@ def first_lesser(
     slack = 0
     for attempt in range(JUMP_TRIES):
         bound = least + slack
+        ask = (start, -1, bound, limit)
         count = rivals_listed(
-            candidate, everyone, start, -1, bound, limit, stride, others_r, others_c,
-            lands, energy, found, np.empty(0, dtype=np.int64),
-        )[0]  # fmt: skip
+            candidate, everyone, ask, grid, rivals, energy, (found, np.empty(0, dtype=np.int64))
+        )[0]
         if count == found.size:
             return -1, -1, -1
+        walk = (start, bound, 1, mark + AMONG_MARKS * attempt)
         rank, cell = first_among(
-            state, candidate, found[:count], start, stride, bound, 1, hold,
-            others_r, others_c, lands, energy, seen, mark + AMONG_MARKS * attempt, parent, queue,
-        )  # fmt: skip
+            grid, candidate, found[:count], walk, rivals, energy, (seen, parent, queue)
+        )
         if rank >= 0:
             d = 0
             w = cell
@@ -112,18 +110,13 @@ def first_lesser(
 
 @njit(cache=True, nogil=True)
 def none_uncontested(
-    state: np.ndarray,
+    grid: Grid,
     candidate: np.ndarray,
     listed: np.ndarray,
     start: int,
-    stride: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    lands: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-    found: np.ndarray,
-    spare: tuple[np.ndarray, np.ndarray, np.ndarray],
-    stamp: int,
+    rivals: Rivals,
+    energy: EnergyTerms,
+    aside: Aside,
 ) -> bool:
     """Is it certain that no candidate is uncontested (rank 0) for ``_search``?
 
@@ -132,14 +125,18 @@ def none_uncontested(
     the lower bounds of ``rivals_listed`` allow it (the ``listed`` cells
     cover them all, as for the horizon), and a breadth-first search, bounded
     to the cells on a way to one of them short enough, tells whether any is
-    (False; also when there are too many to list). ``spare``: a ``seen``, a
-    ``queue`` and a ``parent`` of its own, as the search is left as it
-    stands, to go on with when this fails.
+    (False; also when there are too many to list). ``aside``: a list, and a
+    ``seen``, a ``queue`` and a ``parent`` of its own, as the search is left as
+    it stands, to go on with when this fails.
     """
+    found, spare, stamp = aside
+    seen, queue, parent = spare
+    others_r, others_c, _ = rivals
+    stride = grid[1]
+    ask = (start, -1, UNREACHED, UNREACHED)
     count = rivals_listed(
-        candidate, listed, start, -1, UNREACHED, UNREACHED, stride, others_r, others_c,
-        lands, energy, found, np.empty(0, dtype=np.int64),
-    )[0]  # fmt: skip
+        candidate, listed, ask, grid, rivals, energy, (found, np.empty(0, dtype=np.int64))
+    )[0]
     if count == found.size or others_r.size == 0:
         return count == 0  # with nobody else, any candidate it can reach is uncontested
     targets = found[:count]
@@ -147,32 +144,22 @@ def none_uncontested(
     for i in range(count):
         t = targets[i]
         bounds[i] = nearest_manhattan(others_r, others_c, t // stride - 1, t % stride - 1)
-    seen, queue, parent = spare
+    walk = (start, 0, 0, stamp)
     rank, _ = reached_within(
-        state, candidate, targets, bounds, start, stride, 0, 0, others_r, others_c, lands,
-        energy, seen, stamp, parent, queue,
-    )  # fmt: skip
+        grid, candidate, targets, bounds, walk, rivals, energy, (seen, parent, queue)
+    )
     return rank < 0
 
 
 @njit(cache=True, nogil=True)
 def first_among(
-    state: np.ndarray,
+    grid: Grid,
     candidate: np.ndarray,
     targets: np.ndarray,
-    start: int,
-    stride: int,
-    bound: int,
-    rank: int,
-    hold: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    lands: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-    seen: np.ndarray,
-    stamp: int,
-    parent: np.ndarray,
-    queue: np.ndarray,
+    walk: Walk,
+    rivals: Rivals,
+    energy: EnergyTerms,
+    scratch: Scratch,
 ) -> tuple[int, int]:
     """``_search`` when only the ``targets`` (candidates in range, and reached
     from home) can be what it returns, all within ``bound`` moves: the first
@@ -196,6 +183,8 @@ def first_among(
     the same answers but 125 it could not tell). ``stamp`` to ``stamp + 2``
     mark ``seen``.
     """
+    start, bound, rank, stamp = walk
+    _, stride, lands = grid
     least: int = UNREACHED
     for i in range(targets.size):
         at_least = way_at_least(start, targets[i], stride, lands)
@@ -203,69 +192,43 @@ def first_among(
             least = at_least
     if least > bound:
         return -1, -1
-    found, cell = first_tied(
-        state, candidate, targets, start, stride, least, rank, hold,
-        others_r, others_c, lands, energy, seen, stamp, parent, queue,
-    )  # fmt: skip
+    tied = (start, least, rank, stamp)
+    found, cell = first_tied(grid, candidate, targets, tied, rivals, energy, scratch)
     if found >= 0 or least == bound:
         return found, cell
-    found, cell = first_back(
-        state, candidate, targets, start, stride, bound, rank, hold,
-        others_r, others_c, lands, energy, seen, stamp + 1, parent, queue,
-    )  # fmt: skip
+    back = (start, bound, rank, stamp + 1)
+    found, cell = first_back(grid, candidate, targets, back, rivals, energy, scratch)
     if found >= -1:
         return found, cell
-    return first_reached(
-        state, candidate, targets, start, stride, bound, rank, hold,
-        others_r, others_c, lands, energy, seen, stamp + 2, parent, queue,
-    )  # fmt: skip
+    forward = (start, bound, rank, stamp + 2)
+    return first_reached(grid, candidate, targets, forward, rivals, energy, scratch)
 
 
 @njit(cache=True, nogil=True)
 def first_reached(
-    state: np.ndarray,
+    grid: Grid,
     candidate: np.ndarray,
     targets: np.ndarray,
-    start: int,
-    stride: int,
-    bound: int,
-    rank: int,
-    hold: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    lands: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-    seen: np.ndarray,
-    stamp: int,
-    parent: np.ndarray,
-    queue: np.ndarray,
+    walk: Walk,
+    rivals: Rivals,
+    energy: EnergyTerms,
+    scratch: Scratch,
 ) -> tuple[int, int]:
     """``first_among``, breadth-first: ``reached_within`` with one bound for all."""
-    bounds = np.full(targets.size, bound, dtype=np.int64)
-    return reached_within(
-        state, candidate, targets, bounds, start, stride, rank, hold,
-        others_r, others_c, lands, energy, seen, stamp, parent, queue,
-    )  # fmt: skip
+    bounds = np.full(targets.size, walk[1], dtype=np.int64)
+    return reached_within(grid, candidate, targets, bounds, walk, rivals, energy, scratch)
 
 
 @njit(cache=True, nogil=True)
 def reached_within(
-    state: np.ndarray,
+    grid: Grid,
     candidate: np.ndarray,
     targets: np.ndarray,
     bounds: np.ndarray,
-    start: int,
-    stride: int,
-    rank: int,
-    hold: int,
-    others_r: np.ndarray,
-    others_c: np.ndarray,
-    lands: np.ndarray,
-    energy: tuple[float, float, float, float, float],
-    seen: np.ndarray,
-    stamp: int,
-    parent: np.ndarray,
-    queue: np.ndarray,
+    walk: Walk,
+    rivals: Rivals,
+    energy: EnergyTerms,
+    scratch: Scratch,
 ) -> tuple[int, int]:
     """The first of the ``targets`` that ``_search`` reaches within its bound
     (``bounds``, one each) and that the agent can afford and that ranks
@@ -277,8 +240,11 @@ def reached_within(
     is at most that target's bound: either bound changes by
     at most one a move, so, as in ``_path_search``, every target reached
     within its bound is reached in the same order, from the same parents, as
-    by the search over the whole map.
+    by the search over the whole map. (``walk``'s bound is not read.)
     """
+    start, _, rank, stamp = walk
+    state, stride, lands = grid
+    seen, parent, queue = scratch
     steps = (-stride, stride, 1, -1)
     n = targets.size
     toward = 0
@@ -323,7 +289,7 @@ def reached_within(
                     break
             if not target:
                 continue
-            found = target_rank(v, d, rank, hold, stride, others_r, others_c, lands, energy)
+            found = target_rank(v, d, rank, grid, rivals, energy)
             if found >= 0:
                 return found, v
     return -1, -1
