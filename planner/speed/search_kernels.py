@@ -132,10 +132,9 @@ def ranked_search(
     others (in a crowd), ``first_lesser`` may find the first lesser one
     directly (``_lesser_first``).
     """
-    state, stride, lands = grid
+    state, stride, _ = grid
     candidate = pool[0]
     seen, parent, queue = scratch
-    battery, cost, floor, best_cost, budget = energy
     hold = rivals[2]
     steps = (-stride, stride, 1, -1)
     best1 = -1
@@ -180,12 +179,9 @@ def ranked_search(
             tail += 1
             if candidate[v] == 0:
                 continue
-            back = lands[v, HOME]
-            if back < UNREACHED and 2.0 * back * best_cost > budget:
-                continue  # out of range for every agent
-            if back >= UNREACHED or battery - cost * (d + back) < floor:
-                continue  # cannot afford it
-            rank = target_rank(v, d, 2, grid, rivals, energy)
+            rank = _affordable_rank(v, d, grid, rivals, energy)
+            if rank < 0:
+                continue
             if rank == 0:
                 return 0, v, kept_count
             if rank == 1:
@@ -211,6 +207,19 @@ def ranked_search(
     if best2 >= 0:
         return 2, best2, kept_count
     return -1, -1, kept_count
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _affordable_rank(v: int, d: int, grid: Grid, rivals: Rivals, energy: EnergyTerms) -> int:
+    """Candidate ``v``'s rank ``d`` moves away (``target_rank``), or -1 when it is
+    out of range for every agent or the agent cannot afford it there."""
+    battery, cost, floor, best_cost, budget = energy
+    back = grid[2][v, HOME]
+    if back < UNREACHED and 2.0 * back * best_cost > budget:
+        return -1  # out of range for every agent
+    if back >= UNREACHED or battery - cost * (d + back) < floor:
+        return -1  # cannot afford it
+    return target_rank(v, d, 2, grid, rivals, energy)  # type: ignore[no-any-return]
 
 
 @njit(cache=True, nogil=True)
