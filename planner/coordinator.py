@@ -736,22 +736,12 @@ class Coordinator:
         """
         spread = self.settings.spread
         hold = self.settings.hold_radius if spread else 0
-        energy = Energy(
-            battery=a.battery_pct,
-            cost=self._move_cost(a),
-            floor=self.settings.reserve_pct - _EPS,
-            best_cost=self._best_move_cost(),
-            budget=self._range_budget_pct,
-        )
-        request = SearchRequest(
-            start=a.index,
-            energy=energy,
-            others=self._team.others(a.slot) if spread else _NOBODY,
-            hold=hold,
-            excluded=list(self._claims),
-            pool=pool,
-            hint=Hint(*hint) if hint is not None and pool is None else None,
-        )
+        # Positional: a keyword costs more than the field it names, once a decision.
+        floor, best_cost = self.settings.reserve_pct - _EPS, self._best_move_cost()
+        energy = Energy(a.battery_pct, self._move_cost(a), floor, best_cost, self._range_budget_pct)
+        others = self._team.others(a.slot) if spread else _NOBODY
+        heading = Hint(*hint) if hint is not None and pool is None else None
+        request = SearchRequest(a.index, energy, others, hold, list(self._claims), pool, heading)
         found = self._search.run(request, a.search_memory)
         if found is None:
             return None
