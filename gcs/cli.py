@@ -15,6 +15,7 @@ import sys
 from collections.abc import Callable, Sequence
 
 from gcs.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, UsageError
+from planner.native import use_sources_if_stale
 
 #: Subcommands, in the order ``--help`` lists them.
 COMMANDS = ("plan", "bench", "map", "run", "report", "status", "mission")
@@ -45,6 +46,7 @@ def command_function(target: str | Callable[[argparse.Namespace], int]) -> Calla
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    use_sources_if_stale()  # before a command imports the compiled planner
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

@@ -15,10 +15,10 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Final
 
-from planner.fast_search import HorizonMemo, Team, WayMemo
 from planner.grid import Cell, Direction
 from planner.settings import AgentSpec
-from planner.settled_target import SettledTarget
+from planner.target_search import SearchMemory
+from planner.team import Team
 
 
 class AgentMode(StrEnum):
@@ -109,9 +109,8 @@ class AgentRecord:
     index: int
     team: Team
     slot: int
-    memo: HorizonMemo
-    way_memo: WayMemo = field(default_factory=WayMemo)
-    settled: SettledTarget = field(default_factory=SettledTarget)
+    #: What the target search keeps of the agent (``TargetSearch.memory``).
+    search_memory: SearchMemory
     battery_pct: float = 100.0
     _mode: AgentMode = EXPLORING
     path: deque[int] = field(default_factory=deque)  # remaining moves, next first

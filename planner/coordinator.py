@@ -48,14 +48,15 @@ from planner.agent import (
     PlannerEvent,
 )
 from planner.belief import UNREACHED, MapBelief
-from planner.fast_search import HorizonMemo, TargetSearch, Team
 from planner.give_way import GiveWay
 from planner.grid import MOVES, Cell, CellState, Direction
 from planner.prm import Roadmap
 from planner.settings import AgentSpec, PathPlannerKind, PlannerSettings
 from planner.staying_alive import EPS, StayingAlive
 from planner.sweep import Sweep
+from planner.target_search import target_search
 from planner.targets import Targets
+from planner.team import Team
 from planner.traffic import Traffic
 
 
@@ -81,13 +82,13 @@ class Coordinator:
             known_map.load_prior(belief, prior)
         self.stacks = btp.BtpStacks()
         team = Team(len(agents), charger)
+        self._search = search = target_search(belief, settings)
         self._agents: Fleet = {
-            a.id: AgentRecord(a, belief.charger_index, team, slot, HorizonMemo(team, slot))
+            a.id: AgentRecord(a, belief.charger_index, team, slot, search.memory(team, slot))
             for slot, a in enumerate(agents)
         }
         self._events: list[PlannerEvent] = []
         self._recalled = False  # see ``recall``
-        self._search = TargetSearch(belief)
         #: The direction of a move, by the difference of the flat indices.
         self._heading_of = {belief.offset[d]: d for d in MOVES}
         self._roadmap = Roadmap(settings) if settings.path_planner == PathPlannerKind.PRM else None

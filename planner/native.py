@@ -4,7 +4,9 @@ their sources changed since.
 An install builds the modules of ``COMPILED`` with mypyc (``setup.py``) and
 records a hash of each source in ``native_build.json``. The extension modules
 sit beside the sources and Python imports them first, so a source edited
-since the build would not run. At ``import planner``, ``use_sources_if_stale``
+since the build would not run. ``use_sources_if_stale``, which each program
+calls before it imports a compiled module (``gcs.cli.main``,
+the tests' ``conftest.py``; importing ``planner`` itself reads nothing),
 compares the sources with the record: when any differs, every module of the
 list is imported from its source (they are one compiled group, and compiled
 code reads the attributes of the others' classes natively), with a warning
@@ -33,7 +35,7 @@ COMPILED = (
     "planner.grid",
     "planner.belief",
     "planner.btp",
-    "planner.settled_target",
+    "planner.speed.settled_target",
     "planner.agent",
     "planner.staying_alive",
     "planner.traffic",
@@ -105,6 +107,8 @@ class _FromSources(importlib.abc.MetaPathFinder):
 
 
 def use_sources_if_stale(root: Path = HERE.parent) -> None:
+    """Import the modules of ``COMPILED`` from their sources from now on, when the
+    build beside them is stale; idempotent. Call it before any of them is imported."""
     changed = stale(root)
     if not changed or any(isinstance(f, _FromSources) for f in sys.meta_path):
         return

@@ -13,6 +13,32 @@ class PathPlannerKind(StrEnum):
     PRM = "prm"  # the paper's probabilistic roadmap, on networkx
 
 
+class SearchKind(StrEnum):
+    """Which implementation of the target search ranks a blocked agent's targets
+    (``planner.target_search``): both return the same target and path."""
+
+    COMPILED = "compiled"  # numba kernels and per-agent memories (default)
+    REFERENCE = "reference"  # plain Python breadth-first search: the rule as written
+
+
+@dataclass(frozen=True)
+class SearchShortcuts:
+    """Which shortcuts the compiled target search takes (``planner.speed.compiled_search``).
+    Each only spares work: the plans are the same without it, which the tests
+    show by switching it off here."""
+
+    #: The horizon pass over the agent's shortlist (``HorizonMemo``), not every cell.
+    shortlist: bool = True
+    #: The target on the agent's way confirmed without a search (``_confirm``).
+    confirm: bool = True
+    #: The confirmation's candidates kept along the way (``WayMemo``).
+    way_memo: bool = True
+    #: A target proved by the last check carried on without one (``SettledTarget``).
+    settled: bool = True
+    #: Every candidate found left to other agents without a search.
+    left_to_others: bool = True
+
+
 class TargetPolicy(StrEnum):
     """Which backtracking point a blocked agent takes."""
 
@@ -52,6 +78,10 @@ class PlannerSettings:
     #: How many agents can charge at once; None is unlimited (the paper).
     charging_slots: int | None = None
     path_planner: PathPlannerKind = PathPlannerKind.GRID
+    #: The target search's implementation: the same plans, at different speeds.
+    search: SearchKind = SearchKind.COMPILED
+    #: The compiled search's shortcuts (all taken unless a test switches one off).
+    search_shortcuts: SearchShortcuts = SearchShortcuts()
     target_policy: TargetPolicy = TargetPolicy.FRONTIER
     bm_rule: BmRule = BmRule.TIGHT
     #: Among equally tight moves, take the one farthest from the other working

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from planner.agent import AgentRecord
 from planner.belief import MapBelief
-from planner.fast_search import Team, nearest_manhattan
 from planner.grid import CellState
 from planner.settings import BmRule, PlannerSettings
+from planner.speed.bounds import nearest_manhattan
+from planner.team import Team
 
 _FREE = int(CellState.FREE)
 _OBSTACLE = int(CellState.OBSTACLE)

@@ -27,11 +27,12 @@ from planner.agent import (
     PlannerEvent,
 )
 from planner.belief import MapBelief
-from planner.fast_search import TargetSearch, Team
 from planner.prm import Roadmap
 from planner.settings import PlannerSettings, TargetPolicy
 from planner.staying_alive import EPS as _EPS
 from planner.staying_alive import StayingAlive
+from planner.target_search import Energy, Hint, SearchRequest, TargetSearch
+from planner.team import Team
 from planner.traffic import Traffic
 
 
@@ -241,22 +242,13 @@ class Targets:
         """
         spread = self.settings.spread
         hold = self.settings.hold_radius if spread else 0
-        found = self._search.run(
-            a.index,
-            a.battery_pct,
-            self._move_cost(a),
-            self.settings.reserve_pct - _EPS,
-            self._best_move_cost(),
-            self._range_budget_pct,
-            self._team.others(a.slot) if spread else _NOBODY,
-            hold,
-            list(self._claims),
-            pool,
-            a.memo if pool is None else None,
-            hint if pool is None else None,
-            a.way_memo if pool is None else None,
-            a.settled if pool is None else None,
-        )
+        # Positional: a keyword costs more than the field it names, once a decision.
+        floor, best_cost = self.settings.reserve_pct - _EPS, self._best_move_cost()
+        energy = Energy(a.battery_pct, self._move_cost(a), floor, best_cost, self._range_budget_pct)
+        others = self._team.others(a.slot) if spread else _NOBODY
+        heading = Hint(*hint) if hint is not None and pool is None else None
+        request = SearchRequest(a.index, energy, others, hold, list(self._claims), pool, heading)
+        found = self._search.run(request, a.search_memory)
         if found is None:
             return None
         level, goal, path = found

@@ -35,12 +35,12 @@ from planner.agent import (
     PlannerEvent,
 )
 from planner.belief import MapBelief
-from planner.fast_search import TargetSearch
 from planner.grid import CellState
 from planner.paths import path_to_charger, path_to_known
 from planner.prm import Roadmap
 from planner.settings import PlannerSettings
 from planner.staying_alive import StayingAlive
+from planner.target_search import TargetSearch
 
 _FREE = int(CellState.FREE)
 

@@ -8,14 +8,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from planner import bounded_search, landmarks
 from planner.belief import UNREACHED, MapBelief
-from planner.fast_search import TargetSearch
 from planner.grid import CellState
-from planner.landmarks import HOME, Landmarks
 from planner.paths import bfs_distances
+from planner.speed import bounds, landmarks
+from planner.speed.compiled_search import CompiledSearch
+from planner.speed.landmarks import HOME, Landmarks
 from sitl_mock import mapgen
-from tests.test_fast_search import _tracks_digest
+from tests.test_target_search import _tracks_digest
 
 SIDE = 30
 
@@ -150,7 +150,7 @@ def test_the_bound_is_never_more_than_the_way(seed: int, walls: float) -> None:
     grid[0, 0] = False
     for r, c in zip(*np.nonzero(~grid), strict=True):
         belief.mark_free(belief.index((int(r), int(c))))
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(landmarks, "DETOUR", 0.0)
         lands = search.landmarks.update()
@@ -158,10 +158,10 @@ def test_the_bound_is_never_more_than_the_way(seed: int, walls: float) -> None:
     for u in rng.choice(reached, size=5):
         way = bfs_distances(belief, int(u))
         for v in rng.choice(reached, size=20):
-            bound = bounded_search.way_at_least(int(u), int(v), belief.stride, lands)
+            bound = bounds.way_at_least(int(u), int(v), belief.stride, lands)
             assert bound <= way[int(v)]
             for moves in (bound - 1, bound, way[int(v)]):
-                within = bounded_search.way_within(int(u), int(v), moves, belief.stride, lands)
+                within = bounds.way_within(int(u), int(v), moves, belief.stride, lands)
                 assert within == (bound <= moves)
 
 

@@ -40,7 +40,7 @@ search reaches ``g`` before a rival ``r`` as far, then from the next cell of
 ``g``'s first way, with ``r`` still as far as ``g``, it reaches ``g`` first
 again, so long as the ways within their distance are as they were (no cell
 blocked, none found since within the way's length). A transit check with
-other agents at work that finds such a rival (``TargetSearch._confirm``)
+other agents at work that finds such a rival (``CompiledSearch._confirm``)
 needs no second search to tell the two apart while that holds
 (``SettledTie``).
 """
@@ -50,7 +50,7 @@ from __future__ import annotations
 import numpy as np
 
 from planner.belief import MapBelief
-from planner.bounded_search import all_beyond
+from planner.speed.bounds import all_beyond
 
 
 class OnFirstWay:
@@ -100,7 +100,7 @@ class OnFirstWay:
 
 class SettledTarget(OnFirstWay):
     """One agent's target proved by the last full check, and where the agent is
-    on the way there. Kept and read by ``TargetSearch``."""
+    on the way there. Kept and read by ``CompiledSearch``."""
 
     def __init__(self) -> None:
         super().__init__()
@@ -135,7 +135,7 @@ class SettledTarget(OnFirstWay):
 
 class SettledTie(OnFirstWay):
     """A rival that the search reaches as far as the target but after it, for an
-    agent on the target's first way. Kept and read by ``TargetSearch._confirm``."""
+    agent on the target's first way. Kept and read by ``CompiledSearch._confirm``."""
 
     def __init__(self) -> None:
         super().__init__()

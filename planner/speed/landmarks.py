@@ -2,7 +2,7 @@
 
 For any cell ``L``, the way between two cells is at least the difference of
 their distances from ``L`` (the triangle inequality). The target searches
-(``bounded_search``) bound the ways to their candidates so, and with the
+(``planner.speed.bounds``) bound the ways to their candidates so, and with the
 charger as the only landmark the bound is weak wherever the way does not run
 towards or away from it: in a maze of rooms the ways are several times the
 Manhattan distance, and a bounded search then visits most of the map within

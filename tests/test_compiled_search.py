@@ -1,32 +1,61 @@
-"""The compiled searches' shortcuts give exactly what the plain passes give."""
+"""The compiled searches' shortcuts give exactly what the plain passes give, kernel by
+kernel (the plans with each shortcut switched off: ``tests/test_target_search.py``)."""
 
 from __future__ import annotations
-
-import hashlib
-import json
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gcs.offline.simulate import simulate
-from planner import bounded_search, fast_search, landmarks
 from planner.belief import UNREACHED, MapBelief
-from planner.fast_search import HorizonMemo, TargetSearch, Team, WayMemo, _uncontested_horizon
 from planner.grid import CellState
 from planner.paths import bfs_distances, shortest_path
-from planner.settled_target import SettledTarget
+from planner.settings import SearchShortcuts
+from planner.speed import bounds as lower_bounds
+from planner.speed import landmarks, walk_back, walks
+from planner.speed.compiled_search import (
+    AgentMemory,
+    CompiledSearch,
+    HorizonMemo,
+    WayMemo,
+)
+from planner.speed.search_kernels import uncontested_horizon
+from planner.speed.settled_target import SettledTarget
+from planner.target_search import Energy, Found, Hint, SearchRequest
+from planner.team import Team
 from sitl_mock import mapgen
-from tests.checks import make_mission
 
 SIDE = 40
 
 
-def _lands(search: TargetSearch) -> np.ndarray:
+def _run(
+    search: CompiledSearch,
+    start: int,
+    battery: float,
+    cost: float,
+    floor: float,
+    best_cost: float,
+    budget: float,
+    others: tuple[np.ndarray, np.ndarray],
+    hold: int,
+    excluded: list[int],
+    pool=None,
+    memo: HorizonMemo | None = None,
+    hint: tuple | None = None,
+    way_memo: WayMemo | None = None,
+    settled: SettledTarget | None = None,
+) -> Found | None:
+    """The search's answer, with the agent's memories given (None: not kept)."""
+    energy = Energy(battery, cost, floor, best_cost, budget)
+    hinted = None if hint is None else Hint(*hint)
+    request = SearchRequest(start, energy, others, hold, excluded, pool, hinted)
+    return search.run(request, AgentMemory(memo, way_memo, settled))
+
+
+def _lands(search: CompiledSearch) -> np.ndarray:
     """The search's distances from the landmarks, up to date (as ``run`` has them)."""
-    search.lands = search.landmarks.update()
-    return search.lands
+    return search.update_lands()
 
 
 def _horizon(belief: MapBelief, cells: np.ndarray, slot: int, rows, cols, working) -> int:
@@ -34,10 +63,10 @@ def _horizon(belief: MapBelief, cells: np.ndarray, slot: int, rows, cols, workin
     others[slot] = False
     start = belief.index((int(rows[slot]), int(cols[slot])))
     candidate = np.frombuffer(belief.uncovered_mask, dtype=np.uint8)
-    lands = _lands(TargetSearch(belief))
-    horizon, _ = _uncontested_horizon(
-        candidate, cells, start, belief.stride, rows[others], cols[others], -1, cells, lands
-    )
+    search = CompiledSearch(belief)
+    _lands(search)
+    rivals = (rows[others], cols[others], 0)
+    horizon, _ = uncontested_horizon(candidate, cells, start, search.grid, rivals, -1, cells)
     return horizon
 
 
@@ -62,21 +91,15 @@ def test_horizon_shortlist_gives_the_full_pass_horizon(seed: int, agents: int, m
     working[:] = rng.random(agents) < 0.8
     working[0] = True
     memo = HorizonMemo(team, 0)
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     listed = search.uncovered_list[: belief.uncovered_count]
     others = working.copy()
     others[0] = False
     start = belief.index((int(rows[0]), int(cols[0])))
-    _, kept = _uncontested_horizon(
-        search.candidate,
-        listed,
-        start,
-        belief.stride,
-        rows[others],
-        cols[others],
-        16,
-        search._kept,
-        _lands(search),
+    _lands(search)
+    rivals = (rows[others], cols[others], 0)
+    _, kept = uncontested_horizon(
+        search.candidate, listed, start, search.grid, rivals, 16, search._kept
     )
     if kept < 0:
         return  # nobody else at work: no shortlist is kept (the horizon is unbounded)
@@ -120,19 +143,18 @@ def test_memo_asks_for_a_full_pass_when_a_rival_moved_beyond_the_margin() -> Non
     belief.mark_free(far_corner)
     team = Team(2, (0, 0))
     team.cols[1] = SIDE - 2  # beside the far corner: nobody else's to take
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     listed = search.uncovered_list[: belief.uncovered_count]
     rows, cols = team.others(0)
-    _, kept = _uncontested_horizon(
+    _lands(search)
+    _, kept = uncontested_horizon(
         search.candidate,
         listed,
         belief.index((0, 0)),
-        belief.stride,
-        rows,
-        cols,
+        search.grid,
+        (rows, cols, 0),
         16,
         search._kept,
-        _lands(search),
     )
     assert far_corner not in search._kept[:kept]
     memo = HorizonMemo(team, 0)
@@ -172,7 +194,7 @@ def _swept_map(rng: np.random.Generator, seed: int, covered: float) -> tuple[Map
     return belief, walls
 
 
-@pytest.mark.parametrize("rivals", [TargetSearch.RIVALS, 3])
+@pytest.mark.parametrize("rivals", [CompiledSearch.RIVALS, 3])
 @settings(max_examples=300, deadline=None)
 @given(
     seed=st.integers(0, 2**32 - 1),
@@ -188,7 +210,7 @@ def test_a_confirmed_hint_is_what_the_search_returns(
     sags: whenever the hint (the target, the rest of the way and when it was a
     shortest way) is confirmed, the search returns the same target at
     the same rank, by a path as long, and the path is the search's or the way.
-    How many rivals the check looks at one by one (``TargetSearch.RIVALS``; a
+    How many rivals the check looks at one by one (``CompiledSearch.RIVALS``; a
     small map seldom has more than a few) only chooses which proof runs:
     with 3, most checks with rivals fall back to the search."""
     rng = np.random.default_rng(seed)
@@ -199,7 +221,7 @@ def test_a_confirmed_hint_is_what_the_search_returns(
     team.rows[:], team.cols[:] = picks[:, 0], picks[:, 1]
     team.working[:] = rng.random(agents) < 0.8
     memo = HorizonMemo(team, 0)
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     search.RIVALS = rivals
     search._rivals = np.zeros(rivals + 1, dtype=np.int64)
     cost = float(rng.choice([0.0, 0.2, 1.0, 2.0]))
@@ -211,7 +233,7 @@ def test_a_confirmed_hint_is_what_the_search_returns(
         start = belief.index((int(team.rows[0]), int(team.cols[0])))
         claims = [i for i in belief.uncovered if rng.random() < 0.02]
         args = (start, battery, cost, 20.0, best_cost, budget, team.others(0), hold, claims)
-        return search.run(*args, None, memo, hint), search.run(*args, None, None)
+        return _run(search, *args, None, memo, hint), _run(search, *args, None, None)
 
     first, _ = ask()
     if first is None:
@@ -274,14 +296,13 @@ def test_all_left_to_others_is_what_the_search_finds(seed: int, agents: int, hol
     for k in range(1, agents):  # most stand among the uncovered cells
         r, c = left[rng.integers(0, len(left))] if left and rng.random() < 0.8 else at
         team.rows[k], team.cols[k] = r + rng.integers(-1, 2), c + rng.integers(-1, 2)
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     cost = float(rng.choice([0.0, 0.1, 0.5, 1.0]))
     start = belief.index((int(at[0]), int(at[1])))
     args = (start, float(rng.uniform(40, 100)), cost, 20.0, cost, 80.0, team.others(0), hold, [])
-    quick = search.run(*args)
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(TargetSearch, "_all_left_to_others", lambda self, *a: (False, None))
-        assert search.run(*args) == quick
+    quick = _run(search, *args)
+    plain = CompiledSearch(belief, SearchShortcuts(left_to_others=False))
+    assert _run(plain, *args) == quick
 
 
 def _walls_opening(walls: np.ndarray, near: tuple[int, int], reach: int, sides: int) -> list:
@@ -315,7 +336,7 @@ def test_a_settled_target_is_what_the_search_returns(
     returns, at the same rank, by a way as long, the way or the search's."""
     rng = np.random.default_rng(seed)
     belief, walls = _swept_map(rng, seed, rng.uniform(0.95, 0.995))  # far targets, long ways
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     settled, way_memo = SettledTarget(), WayMemo()
     cost = float(rng.choice([0.0, 1.0, 1.0, 2.0]))
     battery = float(rng.uniform(40.0, 100.0))
@@ -331,7 +352,7 @@ def test_a_settled_target_is_what_the_search_returns(
 
     def ask(hint, others=nobody):
         args = (start, battery, cost, 20.0, cost, 80.0, others, 5, claims, None, None)
-        return search.run(*args, hint, way_memo, settled), search.run(*args)
+        return _run(search, *args, hint, way_memo, settled), _run(search, *args)
 
     found, _ = ask(None)
     if found is None:
@@ -417,7 +438,7 @@ def test_a_settled_tie_is_what_the_search_returns(seed: int, steps: int, crowd: 
     for i in list(belief.uncovered):
         if belief.cell(i) not in keep:
             belief.cover(belief.cell(i), 1)
-    search, way_memo = TargetSearch(belief), WayMemo()
+    search, way_memo = CompiledSearch(belief), WayMemo()
     start = belief.index(here)
     if belief.state[start] != CellState.FREE:
         return
@@ -427,7 +448,7 @@ def test_a_settled_tie_is_what_the_search_returns(seed: int, steps: int, crowd: 
     def ask(hint):
         others = (team[:, 0].astype(np.int64), team[:, 1].astype(np.int64))
         args = (start, 100.0, 0.5, 20.0, 0.5, 80.0, others, 5, [], None, None)
-        return search.run(*args, hint, way_memo), search.run(*args)
+        return _run(search, *args, hint, way_memo), _run(search, *args)
 
     found, _ = ask(None)
     if found is None or found[0] != 0:
@@ -490,17 +511,21 @@ def test_a_target_is_carried_only_along_the_searchs_first_way(others: str) -> No
     carried along that way."""
     free = [(r, c) for r in range(7) for c in range(7) if (r, c) != (2, 3)]
     belief = _belief_of(free, [(4, 4), (2, 4)])
-    search, settled, way_memo = TargetSearch(belief), SettledTarget(), WayMemo()
+    search, settled, way_memo = CompiledSearch(belief), SettledTarget(), WayMemo()
     start, goal, rival, aside = (belief.index(c) for c in ((3, 3), (4, 4), (2, 4), (3, 4)))
     team = _NOBODY if others == "none" else (np.array([6]), np.array([0]))
     args = (100.0, 0.0, 20.0, 0.0, 80.0, team, 5, [])
-    assert search.run(start, *args)[1] == goal
+    assert _run(search, start, *args)[1] == goal
     # On the way aside (a detour, say), the check keeps it, as short as the search's.
     hint = (goal, [aside, goal], belief.stamp)
-    assert search.run(start, *args, None, None, hint, way_memo, settled) == (0, goal, [aside, goal])
+    assert _run(search, start, *args, None, None, hint, way_memo, settled) == (
+        0,
+        goal,
+        [aside, goal],
+    )
     assert way_memo.tie.goal == goal and settled.goal == (goal if others == "none" else -1)
-    found = search.run(aside, *args, None, None, (goal, [goal], belief.stamp), way_memo, settled)
-    assert found == search.run(aside, *args) == (0, rival, [rival])
+    found = _run(search, aside, *args, None, None, (goal, [goal], belief.stamp), way_memo, settled)
+    assert found == _run(search, aside, *args) == (0, rival, [rival])
 
 
 @pytest.mark.parametrize("change", ["the wall is found open", "the rival nearer is left"])
@@ -512,14 +537,14 @@ def test_a_tie_is_not_kept_once_a_rival_comes_first(change: str) -> None:
     tie kept is not what the check returns."""
     free = [(r, c) for r in range(7) for c in range(7) if (r, c) != (2, 3)]
     belief = _belief_of(free, [(4, 4), (2, 4), (5, 3)])
-    search, way_memo = TargetSearch(belief), WayMemo()
+    search, way_memo = CompiledSearch(belief), WayMemo()
     start, goal = belief.index((3, 3)), belief.index((4, 4))
     energy = (100.0, 0.0, 20.0, 0.0, 80.0)
     beside = (np.array([6]), np.array([3]))
-    found = search.run(start, *energy, beside, 5, [])
+    found = _run(search, start, *energy, beside, 5, [])
     assert found is not None and found[1] == goal
     hint = (goal, list(found[2]), belief.stamp)
-    assert search.run(start, *energy, beside, 5, [], None, None, hint, way_memo) == found
+    assert _run(search, start, *energy, beside, 5, [], None, None, hint, way_memo) == found
     assert way_memo.tie.goal == goal and way_memo.tie.rival == belief.index((2, 4))
     team, first = beside, (2, 4)
     if change == "the wall is found open":
@@ -528,8 +553,8 @@ def test_a_tie_is_not_kept_once_a_rival_comes_first(change: str) -> None:
     else:
         team, first = (np.array([6]), np.array([0])), (5, 3)
     args = (start, *energy, team, 5, [], None, None)
-    checked = search.run(*args, hint, way_memo)
-    assert checked == search.run(*args)
+    checked = _run(search, *args, hint, way_memo)
+    assert checked == _run(search, *args)
     assert checked is not None and checked[1] == belief.index(first)
 
 
@@ -543,11 +568,25 @@ def test_a_target_is_not_carried_once_a_nearer_one_is_affordable(change: str) ->
     ring = [(r, 0) for r in range(7)] + [(6, c) for c in range(1, 7)]
     free = ring + [(r, 6) for r in range(6)] + [(0, 4), (0, 5)]
     belief = _belief_of(free, [(0, 5), (5, 6)])
-    search, settled = TargetSearch(belief), SettledTarget()
+    search, settled = CompiledSearch(belief), SettledTarget()
     start, goal, nearer = (belief.index(c) for c in ((2, 6), (5, 6), (0, 5)))
     battery = 40.0
-    found = search.run(
-        start, battery, 1.0, 20.0, 1.0, 80.0, _NOBODY, 5, [], None, None, None, None, settled
+    found = _run(
+        search,
+        start,
+        battery,
+        1.0,
+        20.0,
+        1.0,
+        80.0,
+        _NOBODY,
+        5,
+        [],
+        None,
+        None,
+        None,
+        None,
+        settled,
     )
     assert found is not None and found[1] == goal
     known_at = belief.stamp
@@ -557,8 +596,8 @@ def test_a_target_is_not_carried_once_a_nearer_one_is_affordable(change: str) ->
         for cell in ((0, 1), (0, 2), (0, 3)):
             belief.mark_free(belief.index(cell))
     args = (start, battery, 1.0, 20.0, 1.0, 80.0, _NOBODY, 5, [], None, None)
-    carried = search.run(*args, (goal, list(found[2]), known_at), None, settled)
-    assert carried == search.run(*args)
+    carried = _run(search, *args, (goal, list(found[2]), known_at), None, settled)
+    assert carried == _run(search, *args)
     assert carried is not None and carried[1] == nearer
 
 
@@ -601,7 +640,7 @@ def test_a_way_still_shortest_has_none_shorter(seed: int, known: float, found: f
     first = int(known * len(order))
     for r, c in order[:first]:
         belief.mark_free(belief.index((int(r), int(c))))
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     home = np.frombuffer(belief.charger_dist, dtype=np.int32)
     known_cells = (belief.index((int(r), int(c))) for r, c in order[:first])
     ends = [i for i in known_cells if home[i] < UNREACHED]  # joined to the known map
@@ -611,7 +650,7 @@ def test_a_way_still_shortest_has_none_shorter(seed: int, known: float, found: f
     known_at = belief.stamp
     for r, c in order[first : first + int(found * (len(order) - first))]:
         belief.mark_free(belief.index((int(r), int(c))))
-    search.lands = search.landmarks.update()  # as ``run`` does before it asks
+    search.update_lands()  # as ``run`` does before it asks
     if search._still_shortest(start, goal, len(way), known_at):
         shortest = search.path(start, goal)
         assert shortest is not None and len(shortest) == len(way)
@@ -647,12 +686,12 @@ def _walk_case(seed: int, agents: int):
             belief.mark_free(i)
             if i not in swept.uncovered:
                 belief.cover(belief.cell(i), 1)
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     lands = _lands(search)
     free = [i for i in range(len(belief.state)) if belief.state[i] == int(CellState.FREE)]
     start = free[int(rng.integers(0, len(free)))]
     stride = belief.stride
-    bounds = {v: bounded_search.way_at_least(start, v, stride, lands) for v in belief.uncovered}
+    bounds = {v: lower_bounds.way_at_least(start, v, stride, lands) for v in belief.uncovered}
     bounds = {v: b for v, b in sorted(bounds.items()) if b < UNREACHED // 2}  # else unreachable
     others = (rng.integers(0, SIDE, agents), rng.integers(0, SIDE, agents))
     energy = (float(rng.uniform(20.0, 100.0)), float(rng.choice([0.0, 0.5])), 20.0, 0.5, 80.0)
@@ -671,12 +710,14 @@ def _walk_cases(test):
     return settings(max_examples=300, deadline=None)(cases(test))
 
 
-def _walked(walk, search: TargetSearch, lands, targets, start, bound, rank, hold, others, energy):
-    search.stamp += bounded_search.AMONG_MARKS
+def _walked(walk, search: CompiledSearch, lands, targets, start, bound, rank, hold, others, energy):
+    search.stamp += walks.AMONG_MARKS
+    grid = (search.state, search.belief.stride, lands)
+    scratch = (search.seen, search.parent, search.queue)
+    rivals = (*others, hold)
     found = walk(
-        search.state, search.candidate, targets, start, search.belief.stride, bound, rank,
-        hold, *others, lands, energy, search.seen, search.stamp, search.parent, search.queue,
-    )  # fmt: skip
+        grid, search.candidate, targets, (start, bound, rank, search.stamp), rivals, energy, scratch
+    )
     return found, search._unwind(start, found[1]) if found[1] >= 0 else None
 
 
@@ -709,8 +750,8 @@ def test_targets_as_far_as_the_bound_are_found_as_breadth_first(
     picked = [v for v in ring if rng.random() < 0.3] + [v for v in beyond if rng.random() < 0.02]
     targets = np.array(rng.permutation(picked), dtype=np.int64)
     case = (search, lands, targets, start, bound, rank, hold, others, energy)
-    walked = _walked(bounded_search.first_tied, *case)
-    assert walked == _walked(bounded_search.first_reached, *case)
+    walked = _walked(walk_back.first_tied, *case)
+    assert walked == _walked(walks.first_reached, *case)
 
 
 @_walk_cases
@@ -725,8 +766,8 @@ def test_first_among_is_what_the_breadth_first_search_reaches(
         return
     targets, bound = _any_targets(rng, bounds)
     case = (search, lands, targets, start, bound, rank, hold, others, energy)
-    walked = _walked(bounded_search.first_among, *case)
-    assert walked == _walked(bounded_search.first_reached, *case)
+    walked = _walked(walks.first_among, *case)
+    assert walked == _walked(walks.first_reached, *case)
 
 
 @_walk_cases
@@ -752,9 +793,9 @@ def test_the_search_back_finds_what_the_search_forward_does(
         others = (np.append(others[0], row - 1 + bounds[nearest]), np.append(others[1], col - 1))
         rank = 0
     case = (search, lands, targets, start, bound, rank, hold, others, energy)
-    back = _walked(bounded_search.first_back, *case)
+    back = _walked(walk_back.first_back, *case)
     if back[0][0] != -2:
-        assert back == _walked(bounded_search.first_reached, *case)
+        assert back == _walked(walks.first_reached, *case)
 
 
 @settings(max_examples=200, deadline=None)
@@ -765,8 +806,7 @@ def test_none_uncontested_only_when_none_is(seed: int, agents: int) -> None:
     when it fails, one is (or there were too many to look at)."""
     rng = np.random.default_rng(seed)
     belief, walls = _swept_map(rng, seed, rng.uniform(0.3, 0.99))
-    search = TargetSearch(belief)
-    stride = belief.stride
+    search = CompiledSearch(belief)
     free = np.argwhere(~walls)
     picks = free[rng.integers(0, len(free), agents + 1)]
     start = belief.index((int(picks[0, 0]), int(picks[0, 1])))
@@ -776,9 +816,10 @@ def test_none_uncontested_only_when_none_is(seed: int, agents: int) -> None:
     listed = search.uncovered_list[: belief.uncovered_count]
     found = search._rivals[:-1]
     search.stamp += 1
-    proved = bounded_search.none_uncontested(
-        search.state, search.candidate, listed, start, stride, *others, _lands(search),
-        energy, found, search._spare, search.stamp,
+    _lands(search)
+    proved = walks.none_uncontested(
+        search.grid, search.candidate, listed, start, (*others, 0), energy,
+        (found, search._spare, search.stamp),
     )  # fmt: skip
     distance = bfs_distances(belief, start)
     uncontested = []
@@ -822,7 +863,7 @@ def test_first_lesser_is_the_first_the_search_reaches(seed: int, agents: int, ho
     breadth-first search reaches, at its distance, by its path."""
     rng = np.random.default_rng(seed)
     belief, walls = _swept_map(rng, seed, rng.uniform(0.0, 0.95))
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     free = np.argwhere(~walls)
     picks = free[rng.integers(0, len(free), agents + 1)]
     start = belief.index((int(picks[0, 0]), int(picks[0, 1])))
@@ -833,9 +874,10 @@ def test_first_lesser_is_the_first_the_search_reaches(seed: int, agents: int, ho
     everyone = search.uncovered_list[: belief.uncovered_count]
     roomy = np.zeros(len(belief.state), dtype=np.int64)  # never too many to list
     search.stamp += 1
-    rank, cell, d = bounded_search.first_lesser(
-        search.state, search.candidate, everyone, start, belief.stride, hold, *others,
-        _lands(search), energy, roomy, search._spare, 8 * search.stamp,
+    _lands(search)
+    rank, cell, d = walks.first_lesser(
+        search.grid, search.candidate, everyone, start, (*others, hold), energy,
+        (roomy, search._spare, 8 * search.stamp),
     )  # fmt: skip
     order, parent = _breadth_first(belief, start)
     depth = {start: 0}
@@ -861,7 +903,7 @@ def test_first_lesser_is_the_first_the_search_reaches(seed: int, agents: int, ho
         # the widened bounds (the least lower bound of those that may, plus 7).
         bounds = []
         for v in belief.uncovered:
-            mine = bounded_search.way_at_least(v, start, belief.stride, search.lands)
+            mine = lower_bounds.way_at_least(v, start, belief.stride, search.lands)
             if in_range(v, mine) and near(v) >= min(mine, hold + 1):
                 bounds.append(mine)
         assert expected is None or expected[2] > min(bounds) + 7
@@ -903,8 +945,8 @@ def test_a_search_through_a_crowd_ranks_as_breadth_first(seed: int, agents: int,
         inside = abs(r - centre[0]) + abs(c - centre[1]) < 60
         if (inside and not beside) or (not inside and rng.random() < 0.9):
             belief.cover((r, c), 1)
-    search = TargetSearch(belief)
-    found = search.run(start, 100.0, 0.1, 20.0, 0.1, 80.0, others, hold, [])
+    search = CompiledSearch(belief)
+    found = _run(search, start, 100.0, 0.1, 20.0, 0.1, 80.0, others, hold, [])
     order, parent = _breadth_first(belief, start)
     depth = {start: 0}
     best: dict[int, int] = {}
@@ -941,15 +983,15 @@ def test_a_candidate_reached_first_is_taken_only_if_affordable_there() -> None:
     round: the target stands, as the search says."""
     start, behind, goal = (10, 5), (8, 5), (10, 0)
     belief = _behind_a_wall([behind, goal])
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     nobody = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
     way = [belief.index((10, c)) for c in range(4, -1, -1)]
     # Battery 36, 1 a move, floor 20: the target costs 5 + 10 home; the cell behind
     # the wall 2 + 13 as the crow flies (its distance home, 13, is no help: the
     # start's is 15), but 4 + 13 by the way round.
     args = (belief.index(start), 36.0, 1.0, 20.0, 1.0, 80.0, nobody, 5, [])
-    searched = search.run(*args)
-    confirmed = search.run(*args, None, None, (belief.index(goal), way, None))
+    searched = _run(search, *args)
+    confirmed = _run(search, *args, None, None, (belief.index(goal), way, None))
     assert searched is not None and searched[1] == belief.index(goal)
     assert confirmed is not None and confirmed[:2] == searched[:2]
     assert len(confirmed[2]) == len(searched[2])
@@ -977,9 +1019,9 @@ def test_surely_affordable_only_when_one_is_by_the_shortest_way(
     from_start = _true_distances(walls, at)
     floor = 20.0
     energy = (battery, cost, floor, cost, 80.0)
-    lands = _lands(TargetSearch(belief))
+    lands = _lands(CompiledSearch(belief))
     targets = np.array([belief.index(t) for t in picked], dtype=np.int64)
-    sure = bounded_search.surely_affordable(targets, belief.index(at), lands, energy)
+    sure = lower_bounds.surely_affordable(targets, belief.index(at), lands, energy)
     if sure:
         assert any(battery - cost * (from_start[t] + home[t]) >= floor for t in picked)
     if any(battery - cost * (home[at] + 2 * home[t]) >= floor for t in picked):
@@ -992,19 +1034,18 @@ def test_left_to_others_counts_only_if_affordable_by_the_way_there() -> None:
     but not by the way round. So the shortcut finds nothing, as the search says."""
     start, behind = (10, 5), (8, 5)
     belief = _behind_a_wall([behind])
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     beside = (np.array([7], dtype=np.int64), np.array([5], dtype=np.int64))
     # Battery 36, 1 a move, floor 20: 2 + 13 home as the crow flies, 4 + 13 round.
     args = (belief.index(start), 36.0, 1.0, 20.0, 1.0, 80.0, beside, 5, [])
-    assert search.run(*args) is None
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(TargetSearch, "_all_left_to_others", lambda self, *a: (False, None))
-        assert search.run(*args) is None
+    assert _run(search, *args) is None
+    plain = CompiledSearch(belief, SearchShortcuts(left_to_others=False))
+    assert _run(plain, *args) is None
     args = (belief.index(start), 37.0, *args[2:])  # now it can: held back
-    assert search.run(*args) is not None and search.run(*args)[0] == 2
+    assert _run(search, *args) is not None and _run(search, *args)[0] == 2
 
 
-def test_a_way_round_stands_until_a_shorter_one_opens(monkeypatch) -> None:
+def test_a_way_round_stands_until_a_shorter_one_opens() -> None:
     """The way round a wall to the last uncovered cell is confirmed as it stands
     while the map only grows elsewhere; not once a cell on it is blocked, nor
     once a gap opens in the wall: then the search's path is the answer."""
@@ -1018,81 +1059,30 @@ def test_a_way_round_stands_until_a_shorter_one_opens(monkeypatch) -> None:
     for i in list(belief.uncovered):
         if i != goal:
             belief.cover(belief.cell(i), 1)
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     nobody = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
     args = (start, 100.0, 0.0, 20.0, 0.0, 80.0, nobody, 5, [])
-    _, _, way = search.run(*args)
+    _, _, way = _run(search, *args)
     assert len(way) == 25  # down, through the gap at the bottom, and up
     known_at = belief.stamp
-    bounded = []
-    among = fast_search.first_among
-    monkeypatch.setattr(fast_search, "first_among", lambda *a: bounded.append(1) or among(*a))
+    searched = (search.counts.searches, search.counts.bounded)
 
     belief.mark_free(belief.index((11, 11)))  # the map grows far from any shorter way
     belief.cover((11, 11), 1)
-    assert search.run(*args, None, None, (goal, way, known_at)) == (0, goal, way)
-    assert not bounded  # the way stood as it was, without a search
+    assert _run(search, *args, None, None, (goal, way, known_at)) == (0, goal, way)
+    # The way stood as it was, without a search, bounded or not.
+    assert (search.counts.searches, search.counts.bounded) == searched
 
     belief.block(belief.index((10, 5)))  # a lost vehicle in the gap the way went through
-    confirmed = search.run(*args, None, None, (goal, way, known_at))
-    assert confirmed == search.run(*args)
+    confirmed = _run(search, *args, None, None, (goal, way, known_at))
+    assert confirmed == _run(search, *args)
     assert confirmed is not None and len(confirmed[2]) == 27
 
     belief.mark_free(belief.index((0, 5)))  # a gap in the wall, swept at once
     belief.cover((0, 5), 1)
-    confirmed = search.run(*args, None, None, (goal, way, known_at))
-    assert confirmed == search.run(*args)
+    confirmed = _run(search, *args, None, None, (goal, way, known_at))
+    assert confirmed == _run(search, *args)
     assert confirmed is not None and len(confirmed[2]) == 5
-
-
-def _tracks_digest(grid, agents: int) -> str:
-    energy = 80.0 / (4 * (grid.shape[0] + grid.shape[1]))
-    result = simulate(make_mission(grid, agents, energy_per_m_pct=energy))
-    assert result.complete
-    digest = hashlib.sha256()
-    for agent in result.agents:
-        digest.update(json.dumps(agent.track).encode())
-    return digest.hexdigest()
-
-
-@pytest.mark.parametrize(
-    ("grid", "agents"),
-    [(mapgen.open_field(60, 60, 2), 12), (mapgen.rooms(60, 60, 5), 9)],
-    ids=["open60-12", "rooms60-9"],
-)
-def test_plans_are_the_same_without_the_shortlist(monkeypatch, grid, agents: int) -> None:
-    with_memo = _tracks_digest(grid, agents)
-    monkeypatch.setattr(HorizonMemo, "shortlist", lambda self, belief: None)
-    assert _tracks_digest(grid, agents) == with_memo
-
-
-@pytest.mark.parametrize(
-    ("grid", "agents"),
-    [
-        (mapgen.open_field(60, 60, 2), 12),
-        (mapgen.rooms(60, 60, 5), 9),
-        (mapgen.open_field(80, 80, 3), 1),
-    ],
-    ids=["open60-12", "rooms60-9", "open80-1"],
-)
-def test_plans_are_the_same_without_confirmations(monkeypatch, grid, agents: int) -> None:
-    """Skipping the searches that would return the target on the way changes no
-    move, and it does skip searches (alone: a settled target spares them too)."""
-    monkeypatch.setattr(TargetSearch, "_carried", lambda self, *args: False)
-    searches = []
-    search = fast_search._search
-
-    def counted(*args):
-        searches.append(1)
-        return search(*args)
-
-    monkeypatch.setattr(fast_search, "_search", counted)
-    confirmed = _tracks_digest(grid, agents)
-    with_confirmations = len(searches)
-    searches.clear()
-    monkeypatch.setattr(TargetSearch, "_confirm", lambda self, *args: None)
-    assert _tracks_digest(grid, agents) == confirmed
-    assert with_confirmations < len(searches)
 
 
 @settings(max_examples=150, deadline=None)
@@ -1113,21 +1103,21 @@ def test_way_memo_holds_every_candidate_in_reach(
     belief = MapBelief((SIDE, SIDE), (0, 0))
     for r, c in rng.integers(0, SIDE, size=(400, 2)):
         belief.mark_free(belief.index((int(r), int(c))))
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     candidate, stride = search.candidate, belief.stride
     uncovered = search.uncovered_list[: belief.uncovered_count].copy()
     start, goal = (int(v) for v in rng.choice(uncovered, 2, replace=False))
     claimed = rng.choice(uncovered, 5, replace=False).astype(np.int64)
     claimed = claimed[claimed != goal]
-    lands = _lands(search)
+    _lands(search)
     energy = (100.0, 0.0, 0.0, 0.0, 100.0)
     nobody = np.zeros(0, dtype=np.int64)
     memo = WayMemo()
     candidate[claimed] = 0
     room = memo.room(uncovered.size)
-    _, kept = bounded_search.rivals_listed(
-        candidate, uncovered, start, goal, moves, 0, stride, nobody, nobody, lands, energy,
-        search._rivals[:-1], room,
+    _, kept = lower_bounds.rivals_listed(
+        candidate, uncovered, (start, goal, moves, 0), search.grid, (nobody, nobody, 0), energy,
+        (search._rivals[:-1], room),
     )  # fmt: skip
     candidate[claimed] = 1  # released: uncovered, as they were
     memo.keep(kept, start, goal, moves, belief, claimed)
@@ -1159,48 +1149,6 @@ def test_way_memo_holds_every_candidate_in_reach(
             assert v in held, f"candidate {belief.cell(v)} in reach was not handed out"
 
 
-@pytest.mark.parametrize(
-    ("grid", "agents"),
-    [(mapgen.open_field(60, 60, 2), 12), (mapgen.rooms(60, 60, 5), 9)],
-    ids=["open60-12", "rooms60-9"],
-)
-def test_plans_are_the_same_without_the_way_memo(monkeypatch, grid, agents: int) -> None:
-    """The transit's check passing over the cells kept along its way changes no move,
-    and it does pass over them."""
-    _same_plans_without(
-        monkeypatch, grid, agents, WayMemo, "listed", lambda pool: pool is not None, None
-    )
-
-
-def _same_plans_without(monkeypatch, grid, agents: int, owner, name: str, used, off) -> None:
-    """The plan with ``owner.name`` as it is and with it always returning ``off``
-    is the same, and ``used`` tells that it did return something else."""
-    results = []
-    real = getattr(owner, name)
-
-    def counted(self, *args):
-        result = real(self, *args)
-        results.append(used(result))
-        return result
-
-    monkeypatch.setattr(owner, name, counted)
-    with_it = _tracks_digest(grid, agents)
-    assert any(results)
-    monkeypatch.setattr(owner, name, lambda self, *args: off)
-    assert _tracks_digest(grid, agents) == with_it
-
-
-@pytest.mark.parametrize(
-    ("grid", "agents"),
-    [(mapgen.rooms(60, 60, 5), 1), (mapgen.open_field(80, 80, 3), 1), (mapgen.rooms(60, 60, 5), 3)],
-    ids=["rooms60-1", "open80-1", "rooms60-3"],
-)
-def test_plans_are_the_same_without_the_settled_target(monkeypatch, grid, agents: int) -> None:
-    """Carrying a target along its way without a check changes no move, and it
-    does spare checks."""
-    _same_plans_without(monkeypatch, grid, agents, TargetSearch, "_carried", bool, False)
-
-
 @settings(max_examples=100, deadline=None)
 @given(
     seed=st.integers(0, 2**32 - 1),
@@ -1218,7 +1166,7 @@ def test_paths_are_those_of_the_plain_search(
     rng = np.random.default_rng(seed)
     grid = mapgen.rooms(SIDE, SIDE, seed % 1000)
     belief = MapBelief((SIDE, SIDE), grid.charger)
-    search = TargetSearch(belief)
+    search = CompiledSearch(belief)
     walls = grid.obstacle.copy()
     walls[grid.charger] = False
     reach = _true_distances(walls, grid.charger)
@@ -1229,7 +1177,7 @@ def test_paths_are_those_of_the_plain_search(
         patch.setattr(landmarks, "DETOUR", 0.0)
         for k in order[: len(free) // 3]:
             belief.mark_free(free[k])
-        search.lands = search.landmarks.update()
+        search.update_lands()
         for k in order[len(free) // 3 : int(known * len(free))]:
             belief.mark_free(free[k])
         reached = [i for i in free if belief.charger_dist[i] < UNREACHED]
