@@ -4,7 +4,7 @@ numba compiles a kernel at its first call (seconds each after an install,
 before its cache exists) and caches it on disk. A live mission must not
 take that pause in its first decisions, with links open: it runs this
 first. A small planning run on a maze of rooms with a few agents calls
-every kernel the planner has (``tests/test_warm_up.py`` holds that); with
+every kernel the planner has; with
 the cache filled it takes a fraction of a second.
 """
 

@@ -1,0 +1,67 @@
+"""Whole plans with the planner alone: the coordinator against the lockstep world
+(``sitl_mock``'s ground truth), every agent once per iteration, as ``gcs plan``
+flies them, without the ground station."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+
+from core.cells import Cell
+from planner.agent import ActionKind
+from planner.coordinator import Coordinator
+from planner.settings import AgentSpec, PlannerSettings
+from sitl_mock.gridmap import GridMap
+from sitl_mock.lockstep import Body, LockstepWorld
+
+
+@dataclass(frozen=True)
+class Flight:
+    tracks: tuple[tuple[Cell, ...], ...]
+    complete: bool
+    finished: bool
+
+    def digest(self) -> str:
+        """Equal digests: the same plan, cell for cell."""
+        return hashlib.sha256(json.dumps(self.tracks).encode()).hexdigest()
+
+
+def fly(
+    grid: GridMap,
+    agents: int,
+    settings: PlannerSettings,
+    *,
+    energy_per_m_pct: float,
+    max_iterations: int | None = None,
+) -> Flight:
+    """``agents`` identical agents from the charger until the planner has finished
+    (or ``max_iterations``, by default 40 per free cell)."""
+    ids = range(1, agents + 1)
+    coordinator = Coordinator(
+        grid.shape, grid.charger, [AgentSpec(i, energy_per_m_pct) for i in ids], settings
+    )
+    world = LockstepWorld(grid, [Body(i, energy_per_m_pct) for i in ids])
+    tracks: dict[int, list[Cell]] = {i: [grid.charger] for i in ids}
+    for i in ids:
+        coordinator.observe(i, grid.charger, world.sense(grid.charger), world.battery[i])
+    limit = max_iterations or 40 * grid.free_count + 1000
+    for _ in range(limit):
+        if coordinator.finished:
+            break
+        for i in ids:
+            action = coordinator.decide(i)
+            if action.kind == ActionKind.MOVE and action.to is not None:
+                world.move(i, action.to)
+                coordinator.observe(i, action.to, world.sense(action.to), world.battery[i])
+            elif action.kind == ActionKind.CHARGE:
+                world.request_charge(i)
+        world.end_iteration()
+        for i in ids:
+            coordinator.update_battery(i, world.battery[i])
+            tracks[i].append(world.position[i])
+    return Flight(
+        tracks=tuple(tuple(track) for track in tracks.values()),
+        complete=coordinator.coverage_complete,
+        finished=coordinator.finished,
+    )

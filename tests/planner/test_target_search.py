@@ -1,0 +1,103 @@
+"""The target search behind its interface (``planner.target_search``): the plans are
+the same cell for cell with the plain reference search, and with each of the
+compiled search's shortcuts switched off (``PlannerSettings.search_shortcuts``),
+while the shortcuts are taken."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from planner.settings import PlannerSettings, SearchKind, SearchShortcuts
+from planner.speed import compiled_search
+from planner.speed.compiled_search import CompiledSearch, SearchCounts
+from sitl_mock import mapgen
+from tests.planner.flights import fly
+
+
+def _tracks_digest(grid, agents: int, **settings: Any) -> str:
+    """A digest of every agent's track over ``grid``, planned with ``settings``."""
+    energy = 80.0 / (4 * (grid.shape[0] + grid.shape[1]))
+    flight = fly(grid, agents, PlannerSettings(**settings), energy_per_m_pct=energy)
+    assert flight.complete and flight.finished
+    return flight.digest()
+
+
+@pytest.mark.parametrize("kind", ["open_field", "rooms", "building", "caves", "branching"])
+@pytest.mark.parametrize("agents", [1, 3, 7, 12])
+def test_the_reference_search_plans_as_the_compiled_one(kind: str, agents: int) -> None:
+    """Small generated maps of each kind: the same move, cell for cell."""
+    grid = getattr(mapgen, kind)(24, 24, agents)
+    compiled = _tracks_digest(grid, agents)
+    assert _tracks_digest(grid, agents, search=SearchKind.REFERENCE) == compiled
+
+
+def _counted(monkeypatch, grid, agents: int, **settings: Any) -> tuple[str, SearchCounts]:
+    """The plan's digest, and how the compiled searches of the plan answered."""
+    made: list[CompiledSearch] = []
+
+    class Recorded(CompiledSearch):
+        def __init__(self, *args: Any) -> None:
+            super().__init__(*args)
+            made.append(self)
+
+    monkeypatch.setattr(compiled_search, "CompiledSearch", Recorded)
+    digest = _tracks_digest(grid, agents, **settings)
+    counts = SearchCounts()
+    for search in made:
+        for name in vars(counts):
+            setattr(counts, name, getattr(counts, name) + getattr(search.counts, name))
+    return digest, counts
+
+
+def _without(**off: bool) -> dict[str, Any]:
+    return {"search_shortcuts": SearchShortcuts(**off)}
+
+
+OPEN60_12 = pytest.param(mapgen.open_field(60, 60, 2), 12, id="open60-12")
+ROOMS60_9 = pytest.param(mapgen.rooms(60, 60, 5), 9, id="rooms60-9")
+
+
+@pytest.mark.parametrize(("grid", "agents"), [OPEN60_12, ROOMS60_9])
+def test_plans_are_the_same_without_the_shortlist(grid, agents: int) -> None:
+    assert _tracks_digest(grid, agents, **_without(shortlist=False)) == _tracks_digest(grid, agents)
+
+
+@pytest.mark.parametrize(
+    ("grid", "agents"),
+    [OPEN60_12, ROOMS60_9, pytest.param(mapgen.open_field(80, 80, 3), 1, id="open80-1")],
+)
+def test_plans_are_the_same_without_confirmations(monkeypatch, grid, agents: int) -> None:
+    """Skipping the searches that would return the target on the way changes no
+    move, and it does skip searches (alone: a settled target spares them too)."""
+    confirmed, taken = _counted(monkeypatch, grid, agents, **_without(settled=False))
+    plain, searched = _counted(monkeypatch, grid, agents, **_without(settled=False, confirm=False))
+    assert plain == confirmed
+    assert taken.confirmed > 0 and searched.confirmed == 0
+    assert taken.searches < searched.searches
+
+
+@pytest.mark.parametrize(("grid", "agents"), [OPEN60_12, ROOMS60_9])
+def test_plans_are_the_same_without_the_way_memo(monkeypatch, grid, agents: int) -> None:
+    """The transit's check passing over the cells kept along its way changes no move,
+    and it does pass over them."""
+    with_it, taken = _counted(monkeypatch, grid, agents)
+    assert taken.way_listed > 0
+    assert _tracks_digest(grid, agents, **_without(way_memo=False)) == with_it
+
+
+@pytest.mark.parametrize(
+    ("grid", "agents"),
+    [
+        pytest.param(mapgen.rooms(60, 60, 5), 1, id="rooms60-1"),
+        pytest.param(mapgen.open_field(80, 80, 3), 1, id="open80-1"),
+        pytest.param(mapgen.rooms(60, 60, 5), 3, id="rooms60-3"),
+    ],
+)
+def test_plans_are_the_same_without_the_settled_target(monkeypatch, grid, agents: int) -> None:
+    """Carrying a target along its way without a check changes no move, and it
+    does spare checks."""
+    with_it, taken = _counted(monkeypatch, grid, agents)
+    assert taken.carried > 0
+    assert _tracks_digest(grid, agents, **_without(settled=False)) == with_it
