@@ -1,6 +1,7 @@
 """The rules the code is held to, checked by the suite itself (the README's test
-command runs them, and so does CI): ruff's lint and format, and mypy over every
-package of the product."""
+command runs them, and so does CI): ruff's lint and format, mypy over the whole tree
+(the product, its tests and tools), the layers' imports, and the size rules of a
+module, a function and a compiled kernel."""
 
 from __future__ import annotations
 
@@ -13,6 +14,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("core", "planner", "vehicles", "sitl_mock", "gcs")
+#: Everything mypy reads: the product, its tests and the developer's tools.
+TYPED = (*PACKAGES, "tests", "tools", "web")
 #: What each package may not import: the layers, bottom (``core``) to top (``gcs``).
 FORBIDDEN = {
     "core": ("planner", "vehicles", "sitl_mock", "gcs"),
@@ -45,8 +48,8 @@ def test_ruff_format_has_nothing_to_change() -> None:
     assert done.returncode == 0, done.stdout + done.stderr
 
 
-def test_mypy_finds_nothing_in_the_packages(tmp_path: Path) -> None:
-    done = _run("mypy", "--cache-dir", str(tmp_path / "mypy"), *PACKAGES)
+def test_mypy_finds_nothing_in_the_tree(tmp_path: Path) -> None:
+    done = _run("mypy", "--cache-dir", str(tmp_path / "mypy"), *TYPED)
     assert done.returncode == 0, done.stdout + done.stderr
 
 
@@ -112,5 +115,21 @@ def test_the_benches_drive_the_product_through_its_api() -> None:
         if line.strip().startswith(tuple(f"{kind} {m}" for kind in ("from", "import") for m in cli))
         or '"gcs.cli"' in line
         or '"gcs.sitl_cli"' in line
+    ]
+    assert offenders == []
+
+
+@pytest.mark.parametrize(
+    ("tests", "allowed"),
+    [("core", {"core"}), ("planner", {"core", "planner", "sitl_mock"})],
+)
+def test_the_lower_layers_are_tested_on_their_own(tests: str, allowed: set[str]) -> None:
+    """The planner's tests need only the planner (and the simulated world for the
+    truth it is flown against, ``tests/planner/flights.py``); ``core``'s only core."""
+    product = set(PACKAGES)
+    offenders = [
+        f"{path.relative_to(ROOT)}: {name}"
+        for path in sorted((ROOT / "tests" / tests).rglob("*.py"))
+        for name in sorted((_imported(path) & product) - allowed)
     ]
     assert offenders == []

@@ -238,7 +238,8 @@ def test_a_confirmed_hint_is_what_the_search_returns(
     first, _ = ask()
     if first is None:
         return
-    goal, way, known_at = first[1], first[2], belief.stamp  # a shortest way, then
+    goal, way = first[1], first[2]
+    known_at: tuple[int, int] | None = belief.stamp  # a shortest way, then
     for _ in range(min(steps, len(way) - 1)):
         cell = belief.cell(way.pop(0))
         team.rows[0], team.cols[0] = cell
@@ -299,7 +300,17 @@ def test_all_left_to_others_is_what_the_search_finds(seed: int, agents: int, hol
     search = CompiledSearch(belief)
     cost = float(rng.choice([0.0, 0.1, 0.5, 1.0]))
     start = belief.index((int(at[0]), int(at[1])))
-    args = (start, float(rng.uniform(40, 100)), cost, 20.0, cost, 80.0, team.others(0), hold, [])
+    args = (
+        start,
+        float(rng.uniform(40, 100)),
+        cost,
+        20.0,
+        cost,
+        80.0,
+        team.others(0),
+        hold,
+        list[int](),
+    )
     quick = _run(search, *args)
     plain = CompiledSearch(belief, SearchShortcuts(left_to_others=False))
     assert _run(plain, *args) == quick
@@ -363,7 +374,7 @@ def test_a_settled_target_is_what_the_search_returns(
         if aside is not None and len(aside) == len(way):
             way = aside
             ask((goal, list(way), belief.stamp))
-    known_at = belief.stamp
+    known_at: tuple[int, int] | None = belief.stamp
     for _ in range(steps):
         if len(way) < 2:
             return
@@ -514,8 +525,9 @@ def test_a_target_is_carried_only_along_the_searchs_first_way(others: str) -> No
     search, settled, way_memo = CompiledSearch(belief), SettledTarget(), WayMemo()
     start, goal, rival, aside = (belief.index(c) for c in ((3, 3), (4, 4), (2, 4), (3, 4)))
     team = _NOBODY if others == "none" else (np.array([6]), np.array([0]))
-    args = (100.0, 0.0, 20.0, 0.0, 80.0, team, 5, [])
-    assert _run(search, start, *args)[1] == goal
+    args = (100.0, 0.0, 20.0, 0.0, 80.0, team, 5, list[int]())
+    found = _run(search, start, *args)
+    assert found is not None and found[1] == goal
     # On the way aside (a detour, say), the check keeps it, as short as the search's.
     hint = (goal, [aside, goal], belief.stamp)
     assert _run(search, start, *args, None, None, hint, way_memo, settled) == (
@@ -552,7 +564,7 @@ def test_a_tie_is_not_kept_once_a_rival_comes_first(change: str) -> None:
         belief.cover((2, 3), 1)
     else:
         team, first = (np.array([6]), np.array([0])), (5, 3)
-    args = (start, *energy, team, 5, [], None, None)
+    args = (start, *energy, team, 5, list[int](), None, None)
     checked = _run(search, *args, hint, way_memo)
     assert checked == _run(search, *args)
     assert checked is not None and checked[1] == belief.index(first)
@@ -595,7 +607,7 @@ def test_a_target_is_not_carried_once_a_nearer_one_is_affordable(change: str) ->
     else:
         for cell in ((0, 1), (0, 2), (0, 3)):
             belief.mark_free(belief.index(cell))
-    args = (start, battery, 1.0, 20.0, 1.0, 80.0, _NOBODY, 5, [], None, None)
+    args = (start, battery, 1.0, 20.0, 1.0, 80.0, _NOBODY, 5, list[int](), None, None)
     carried = _run(search, *args, (goal, list(found[2]), known_at), None, settled)
     assert carried == _run(search, *args)
     assert carried is not None and carried[1] == nearer
@@ -989,7 +1001,7 @@ def test_a_candidate_reached_first_is_taken_only_if_affordable_there() -> None:
     # Battery 36, 1 a move, floor 20: the target costs 5 + 10 home; the cell behind
     # the wall 2 + 13 as the crow flies (its distance home, 13, is no help: the
     # start's is 15), but 4 + 13 by the way round.
-    args = (belief.index(start), 36.0, 1.0, 20.0, 1.0, 80.0, nobody, 5, [])
+    args = (belief.index(start), 36.0, 1.0, 20.0, 1.0, 80.0, nobody, 5, list[int]())
     searched = _run(search, *args)
     confirmed = _run(search, *args, None, None, (belief.index(goal), way, None))
     assert searched is not None and searched[1] == belief.index(goal)
@@ -1014,8 +1026,11 @@ def test_surely_affordable_only_when_one_is_by_the_shortest_way(
     belief, walls = _swept_map(rng, seed, 0.0)
     home = _true_distances(walls, belief.charger)
     reached = np.argwhere(home >= 0)
-    at = tuple(int(x) for x in reached[rng.integers(0, len(reached))])
-    picked = [tuple(int(x) for x in reached[i]) for i in rng.integers(0, len(reached), count)]
+    row, col = reached[rng.integers(0, len(reached))]
+    at = (int(row), int(col))
+    picked = [
+        (int(reached[i][0]), int(reached[i][1])) for i in rng.integers(0, len(reached), count)
+    ]
     from_start = _true_distances(walls, at)
     floor = 20.0
     energy = (battery, cost, floor, cost, 80.0)
@@ -1037,12 +1052,13 @@ def test_left_to_others_counts_only_if_affordable_by_the_way_there() -> None:
     search = CompiledSearch(belief)
     beside = (np.array([7], dtype=np.int64), np.array([5], dtype=np.int64))
     # Battery 36, 1 a move, floor 20: 2 + 13 home as the crow flies, 4 + 13 round.
-    args = (belief.index(start), 36.0, 1.0, 20.0, 1.0, 80.0, beside, 5, [])
+    args = (belief.index(start), 36.0, 1.0, 20.0, 1.0, 80.0, beside, 5, list[int]())
     assert _run(search, *args) is None
     plain = CompiledSearch(belief, SearchShortcuts(left_to_others=False))
     assert _run(plain, *args) is None
     args = (belief.index(start), 37.0, *args[2:])  # now it can: held back
-    assert _run(search, *args) is not None and _run(search, *args)[0] == 2
+    found = _run(search, *args)
+    assert found is not None and found[0] == 2
 
 
 def test_a_way_round_stands_until_a_shorter_one_opens() -> None:
@@ -1061,8 +1077,10 @@ def test_a_way_round_stands_until_a_shorter_one_opens() -> None:
             belief.cover(belief.cell(i), 1)
     search = CompiledSearch(belief)
     nobody = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
-    args = (start, 100.0, 0.0, 20.0, 0.0, 80.0, nobody, 5, [])
-    _, _, way = _run(search, *args)
+    args = (start, 100.0, 0.0, 20.0, 0.0, 80.0, nobody, 5, list[int]())
+    found = _run(search, *args)
+    assert found is not None
+    _, _, way = found
     assert len(way) == 25  # down, through the gap at the bottom, and up
     known_at = belief.stamp
     searched = (search.counts.searches, search.counts.bounded)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 from collections import deque
+from collections.abc import Callable
 
 import numpy as np
 from hypothesis import given, settings
@@ -18,9 +19,17 @@ from planner.paths import bfs_distances, nearest, path_to_charger, shortest_path
 from planner.prm import Roadmap, line_cells
 from planner.settings import AgentSpec, BmRule, PathPlannerKind, PlannerSettings
 from sitl_mock import mapgen
+from sitl_mock.gridmap import GridMap
 from sitl_mock.maps import make_map, parse_ascii
 
 FREE, OBST = CellState.FREE, CellState.OBSTACLE
+
+#: The map generators the properties draw from, by name.
+MAKERS: dict[str, Callable[..., GridMap]] = {
+    "bars": mapgen.bars,
+    "caves": mapgen.caves,
+    "rooms": mapgen.rooms,
+}
 
 
 def sensing(grid_text: str):
@@ -82,12 +91,10 @@ def test_sensing_records_free_and_obstacle_cells_and_outside_is_obstacle() -> No
 @settings(max_examples=30, deadline=None)
 @given(seed=st.integers(0, 10_000), kind=st.sampled_from(["bars", "caves", "rooms"]))
 def test_incremental_charger_distances_equal_a_fresh_search(seed: int, kind: str) -> None:
-    grid = {"bars": mapgen.bars, "caves": mapgen.caves, "rooms": mapgen.rooms}[kind](
-        20, 24, seed=seed
-    )
+    grid = MAKERS[kind](20, 24, seed=seed)
     belief = MapBelief(grid.shape, grid.charger)
     rng = np.random.default_rng(seed)
-    cells = [tuple(map(int, rc)) for rc in np.argwhere(~grid.obstacle)]
+    cells = [(int(rc[0]), int(rc[1])) for rc in np.argwhere(~grid.obstacle)]
     rng.shuffle(cells)  # discovery in any order
     for cell in cells:
         belief.mark_free(belief.index(cell))
@@ -112,9 +119,8 @@ def test_a_cell_not_listed_as_a_shortcut_shortens_no_way(seed: int, kind: str, o
         walls[8, 4] = False
         grid = make_map(walls, ((8, 4),))
     else:
-        make = {"bars": mapgen.bars, "caves": mapgen.caves, "rooms": mapgen.rooms}[kind]
-        grid = make(9, 10, seed=seed)
-    cells = [tuple(map(int, rc)) for rc in np.argwhere(~grid.obstacle)]
+        grid = MAKERS[kind](9, 10, seed=seed)
+    cells = [(int(rc[0]), int(rc[1])) for rc in np.argwhere(~grid.obstacle)]
     if order == "shuffled":
         rng.shuffle(cells)
     else:
@@ -147,7 +153,7 @@ def test_a_cell_not_listed_as_a_shortcut_shortens_no_way(seed: int, kind: str, o
 def test_shortest_path_length_equals_bfs_distance(seed: int, pick: int) -> None:
     grid = mapgen.caves(24, 24, seed)
     belief = known_belief(grid)
-    free = [tuple(map(int, rc)) for rc in np.argwhere(~grid.obstacle)]
+    free = [(int(rc[0]), int(rc[1])) for rc in np.argwhere(~grid.obstacle)]
     start, goal = free[pick % len(free)], free[(pick * 7 + 3) % len(free)]
     truth = true_distances(grid, start)
     path = shortest_path(belief, belief.index(start), belief.index(goal))
@@ -165,10 +171,14 @@ def test_nearest_finds_the_closest_accepted_cell_and_respects_blocked_cells() ->
     grid, _ = sensing("#######\n#.....#\n#.###.#\n#.....#\n###C###")
     belief = known_belief(grid)
     start = belief.index((3, 3))
-    goal, path = nearest(belief, start, lambda i, d: belief.cell(i) == (1, 3))
+    found = nearest(belief, start, lambda i, d: belief.cell(i) == (1, 3))
+    assert found is not None
+    goal, path = found
     assert belief.cell(goal) == (1, 3) and len(path) == 6
     blocked = {belief.index((3, 2)), belief.index((2, 1))}
-    goal, path = nearest(belief, start, lambda i, d: belief.cell(i) == (1, 1), blocked)
+    found = nearest(belief, start, lambda i, d: belief.cell(i) == (1, 1), blocked)
+    assert found is not None
+    goal, path = found
     assert len(path) == 8 and belief.index((3, 2)) not in path
 
 
@@ -176,8 +186,10 @@ def test_prm_paths_are_grid_moves_over_free_cells() -> None:
     grid = mapgen.rooms(30, 30, 3)
     belief = known_belief(grid)
     roadmap = Roadmap(PlannerSettings(path_planner=PathPlannerKind.PRM, seed=1))
-    roadmap.grow(belief, [belief.index(tuple(map(int, rc))) for rc in np.argwhere(~grid.obstacle)])
-    free = [tuple(map(int, rc)) for rc in np.argwhere(~grid.obstacle)]
+    roadmap.grow(
+        belief, [belief.index((int(rc[0]), int(rc[1]))) for rc in np.argwhere(~grid.obstacle)]
+    )
+    free = [(int(rc[0]), int(rc[1])) for rc in np.argwhere(~grid.obstacle)]
     for k in range(0, len(free), max(1, len(free) // 12)):
         start, goal = free[k], free[-1 - k]
         path = roadmap.path(belief, belief.index(start), belief.index(goal))

@@ -3,6 +3,8 @@ agents going out again head on, and the passage must not jam for good."""
 
 from __future__ import annotations
 
+from collections import deque
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -113,7 +115,7 @@ def test_an_agent_asked_to_make_way_by_one_long_held_up_going_home_goes_home_too
     c = _placed(["####", "#..#", "#..#", "#..#", "#C##"], {1: (2, 1), 2: (1, 1)})
     returning, idle = c._agents[2], c._agents[1]
     returning.mode = AgentMode.RETURN
-    returning.path = [c.belief.index(cell) for cell in [(2, 1), (3, 1), (4, 1)]]
+    returning.path = deque(c.belief.index(cell) for cell in [(2, 1), (3, 1), (4, 1)])
     returning.waited = GIVEN_WAY_AFTER * c.settings.patience
     idle.make_way_for = 2
     c.decide(1)
@@ -127,7 +129,7 @@ def test_an_agent_going_home_asked_again_while_aside_steps_on_home() -> None:
     c = _placed(["#####", "#...#", "#...#", "##C##"], {1: (2, 2), 2: (2, 1), 3: (1, 2)})
     going_home, behind = c._agents[1], c._agents[3]
     going_home.mode = behind.mode = AgentMode.RETURN
-    behind.path = [c.belief.index(cell) for cell in [(2, 2), (3, 2)]]
+    behind.path = deque(c.belief.index(cell) for cell in [(2, 2), (3, 2)])
     going_home.letting_pass = (2, c.belief.index((2, 3)), 8)
     going_home.make_way_for = 3
     action = c.decide(1)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -18,6 +19,7 @@ import pytest
 from gcs.mission import load_mission
 from gcs.offline.simulate import SimOptions, simulate
 from sitl_mock import mapgen
+from sitl_mock.gridmap import GridMap
 from tests.checks import energy_for_round_trips, make_mission
 
 RECORDED = Path(__file__).parents[2] / "data" / "plan_regression.json"
@@ -36,7 +38,11 @@ CASES: dict[str, tuple[str, int, bool]] = {
     "caves50-6": ("caves:50:4", 6, False),
     "open80-10": ("open:80:5", 10, False),
 }
-GENERATORS = {"rooms": mapgen.rooms, "caves": mapgen.caves, "open": mapgen.open_field}
+GENERATORS: dict[str, Callable[..., GridMap]] = {
+    "rooms": mapgen.rooms,
+    "caves": mapgen.caves,
+    "open": mapgen.open_field,
+}
 
 
 def mission_for(source: str, agents: int):
