@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Final
 
-from planner.grid import Cell, Direction
+from core.cells import Cell, Direction
 from planner.settings import AgentSpec
 from planner.target_search import SearchMemory
 from planner.team import Team

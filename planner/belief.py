@@ -19,7 +19,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from planner.grid import Cell, CellState, Direction
+from core.cells import Cell, CellState, Direction
 
 UNREACHED = 1 << 30
 

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 from typing import Final
 
+from core.cells import CellState, Direction
 from planner.belief import MapBelief
-from planner.grid import CellState, Direction
 
 _FREE = int(CellState.FREE)
 _OBSTACLE = int(CellState.OBSTACLE)

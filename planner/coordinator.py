@@ -26,6 +26,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from core.cells import MOVES, Cell, CellState, Direction
 from planner import btp, known_map
 from planner.agent import (
     AT_REST,
@@ -49,7 +50,6 @@ from planner.agent import (
 )
 from planner.belief import UNREACHED, MapBelief
 from planner.give_way import GiveWay
-from planner.grid import MOVES, Cell, CellState, Direction
 from planner.prm import Roadmap
 from planner.settings import AgentSpec, PathPlannerKind, PlannerSettings
 from planner.staying_alive import EPS, StayingAlive

@@ -9,9 +9,9 @@ up, or boxed in, or too low on battery to step aside, goes home with them.
 
 from __future__ import annotations
 
+from core.cells import CellState, manhattan
 from planner.agent import DONE, HOMEWARD, LOST, Action, AgentRecord, Fleet
 from planner.belief import MapBelief
-from planner.grid import CellState, manhattan
 from planner.settings import PlannerSettings
 from planner.staying_alive import StayingAlive
 from planner.traffic import Traffic

@@ -7,9 +7,9 @@ from collections.abc import Iterable
 
 import numpy as np
 
+from core.cells import Cell, CellState
 from planner import btp
 from planner.belief import MapBelief, with_unknown_side
-from planner.grid import Cell, CellState
 
 
 def load_prior(belief: MapBelief, prior: np.ndarray) -> None:

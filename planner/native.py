@@ -32,7 +32,6 @@ from types import ModuleType
 #: Modules that hold numba kernels stay Python: numba reads their bytecode.
 COMPILED = (
     "core.cells",
-    "planner.grid",
     "planner.belief",
     "planner.btp",
     "planner.speed.settled_target",

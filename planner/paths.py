@@ -11,8 +11,8 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Callable, Collection
 
+from core.cells import CellState
 from planner.belief import MapBelief
-from planner.grid import CellState
 
 _FREE = int(CellState.FREE)
 _OBSTACLE = int(CellState.OBSTACLE)

@@ -20,8 +20,8 @@ from collections.abc import Callable, Iterable
 
 import networkx as nx
 
+from core.cells import CellState
 from planner.belief import MapBelief
-from planner.grid import CellState
 from planner.paths import nearest, shortest_path
 from planner.settings import PlannerSettings
 

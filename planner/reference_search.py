@@ -10,8 +10,8 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Iterable, Iterator
 
+from core.cells import CellState
 from planner.belief import UNREACHED, MapBelief
-from planner.grid import CellState
 from planner.target_search import HELD_BACK, Found, SearchMemory, SearchRequest
 from planner.team import Team
 

@@ -15,9 +15,9 @@ import math
 import numpy as np
 from scipy import ndimage
 
+from core.cells import CellState
 from planner.agent import LOST, AgentRecord, EventKind, Fleet, PlannerEvent
 from planner.belief import UNREACHED, MapBelief
-from planner.grid import CellState
 from planner.settings import PlannerSettings
 
 _OBSTACLE = int(CellState.OBSTACLE)

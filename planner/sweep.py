@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
+from core.cells import CellState
 from planner.agent import AgentRecord
 from planner.belief import MapBelief
-from planner.grid import CellState
 from planner.settings import BmRule, PlannerSettings
 from planner.speed.bounds import nearest_manhattan
 from planner.team import Team

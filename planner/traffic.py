@@ -17,6 +17,7 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Iterator
 
+from core.cells import CellState
 from planner.agent import (
     CHARGE,
     CHARGING,
@@ -35,7 +36,6 @@ from planner.agent import (
     PlannerEvent,
 )
 from planner.belief import MapBelief
-from planner.grid import CellState
 from planner.paths import path_to_charger, path_to_known
 from planner.prm import Roadmap
 from planner.settings import PlannerSettings

@@ -23,8 +23,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from core.cells import CellState
 from planner.belief import UNREACHED, MapBelief
-from planner.grid import CellState
 
 _FREE = int(CellState.FREE)
 

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from core.cells import CellState
 from planner.belief import MapBelief
-from planner.grid import CellState
 from planner.speed.settled_target import SettledTarget, SettledTie
 from planner.target_search import (
     SearchMemory,

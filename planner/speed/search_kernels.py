@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from core.cells import CellState
 from planner.belief import UNREACHED
-from planner.grid import CellState
 from planner.speed.bounds import (
     landmark_gap,
     target_rank,

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from core.cells import CellState
 from planner.belief import UNREACHED
-from planner.grid import CellState
 from planner.speed.bounds import target_rank, way_at_least, way_within
 from planner.speed.kernel_args import EnergyTerms, Grid, Rivals, Scratch, Walk
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.cells import NEIGHBOURS, Cell, CellState, Direction
 from planner.agent import AgentMode, EventKind
 from planner.coordinator import Coordinator
-from planner.grid import NEIGHBOURS, Cell, CellState, Direction
 from planner.settings import AgentSpec, BmRule, PlannerSettings
 
 FREE, OBST = CellState.FREE, CellState.OBSTACLE

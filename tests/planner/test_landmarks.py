@@ -8,8 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from core.cells import CellState
 from planner.belief import UNREACHED, MapBelief
-from planner.grid import CellState
 from planner.paths import bfs_distances
 from planner.speed import bounds, landmarks
 from planner.speed.compiled_search import CompiledSearch

@@ -10,11 +10,11 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from core.cells import MOVES, NEIGHBOURS, Cell, CellState, Direction
 from planner import btp
 from planner.agent import ActionKind, AgentMode, EventKind, PlannerEvent
 from planner.belief import UNREACHED, MapBelief
 from planner.coordinator import Coordinator
-from planner.grid import MOVES, NEIGHBOURS, Cell, CellState, Direction
 from planner.paths import bfs_distances, nearest, path_to_charger, shortest_path
 from planner.prm import Roadmap, line_cells
 from planner.settings import AgentSpec, BmRule, PathPlannerKind, PlannerSettings

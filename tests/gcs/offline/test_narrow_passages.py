@@ -10,12 +10,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from core.cells import Cell, CellState
 from gcs.generated_missions import case_mission
 from gcs.offline.simulate import SimOptions, simulate
 from gcs.planning import planner_settings
 from planner.agent import ActionKind, AgentMode, PlannerEvent
 from planner.coordinator import Coordinator
-from planner.grid import Cell, CellState
 from planner.settings import AgentSpec, PlannerSettings
 from planner.traffic import GIVEN_WAY_AFTER
 from sitl_mock.gridmap import GridMap

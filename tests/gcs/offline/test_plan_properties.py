@@ -8,10 +8,10 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from core.cells import NEIGHBOURS
 from gcs.offline.simulate import SimOptions, simulate
 from gcs.planning import planner_settings
 from planner.agent import PlannerEvent
-from planner.grid import NEIGHBOURS
 from planner.settings import BmRule, PathPlannerKind, TargetPolicy
 from sitl_mock import mapgen
 from sitl_mock.gridmap import GridMap
