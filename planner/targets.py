@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Collection, Iterable, Sequence
 from enum import IntEnum
+from typing import NamedTuple
 
 import numpy as np
 
@@ -72,6 +73,15 @@ _Hint = tuple[int, Sequence[int], tuple[int, int] | None]
 _Found = tuple[int, Sequence[int]] | _Held | None
 
 
+class Finders(NamedTuple):
+    """How a blocked agent's target is found: the target search, ranking it against
+    the ``team``, or the ``roadmap`` (the paper's way) when there is one."""
+
+    search: TargetSearch
+    team: Team
+    roadmap: Roadmap | None
+
+
 class Targets:
     """Finds a blocked agent its next target, claims it and sets the agent on its way."""
 
@@ -83,9 +93,7 @@ class Targets:
         stacks: btp.BtpStacks,
         traffic: Traffic,
         alive: StayingAlive,
-        search: TargetSearch,
-        roadmap: Roadmap | None,
-        team: Team,
+        finders: Finders,
         events: list[PlannerEvent],
     ) -> None:
         self.belief = belief
@@ -93,9 +101,7 @@ class Targets:
         self._stacks = stacks
         self._traffic = traffic
         self._alive = alive
-        self._search = search
-        self._roadmap = roadmap
-        self._team = team
+        self._search, self._team, self._roadmap = finders
         self._claims = traffic.claims
         self._events = events
         self._tiers = _TIERS[settings.target_policy]
