@@ -91,14 +91,25 @@ class SearchScratch:
         #: The distances from the landmarks (``Landmarks.lands``), brought up to
         #: date at the start of each ``run`` and ``path``.
         self.lands = self.landmarks.lands
+        #: The belief's counts when ``lands`` was last brought up to date: while
+        #: they stand, ``Landmarks.update`` has nothing to do.
+        self._lands_at = (-1, -1, -1)
         #: The map as the kernels read it (``kernel_args.Grid``), with ``lands``.
         self.grid: Grid = (self.state, belief.stride, self.lands)
         self._scratch: Scratch = (self.seen, self.parent, self.queue)
 
     def update_lands(self) -> np.ndarray:
         """Bring the distances from the landmarks up to date (``lands``, ``grid``)."""
-        self.lands = self.landmarks.update()
-        self.grid = (self.state, self.belief.stride, self.lands)
+        belief = self.belief
+        added, blocked, free = self._lands_at
+        if (
+            belief.added_count != added
+            or belief.blocked_count != blocked
+            or belief.free_count != free
+        ):
+            self.lands = self.landmarks.update()
+            self.grid = (self.state, belief.stride, self.lands)
+            self._lands_at = (belief.added_count, belief.blocked_count, belief.free_count)
         return self.lands
 
     def _unwind(self, start: int, goal: int) -> list[int]:
