@@ -55,7 +55,7 @@ from planner.settings import AgentSpec, PathPlannerKind, PlannerSettings
 from planner.staying_alive import EPS, StayingAlive
 from planner.sweep import Sweep
 from planner.target_search import target_search
-from planner.targets import Targets
+from planner.targets import Finders, Targets
 from planner.team import Team
 from planner.traffic import Traffic
 
@@ -120,9 +120,7 @@ class Coordinator:
             stacks=self.stacks,
             traffic=traffic,
             alive=alive,
-            search=self._search,
-            roadmap=self._roadmap,
-            team=team,
+            finders=Finders(self._search, team, self._roadmap),
             events=events,
         )
 

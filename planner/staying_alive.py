@@ -174,8 +174,8 @@ class StayingAlive:
         """An uncovered cell that some agent can reach and come back from, or None.
 
         Read from the packed list: a set emptied by covering keeps its table, and
-        iterating it reads every slot, which once coverage is complete happened
-        at every call (2 % of the time of open 1000x1000 with 50 agents)."""
+        iterating it reads every slot, which once coverage is complete would
+        happen at every call."""
         belief = self.belief
         listed = belief.uncovered_list
         for k in range(belief.uncovered_count):

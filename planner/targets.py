@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Collection, Iterable, Sequence
 from enum import IntEnum
+from typing import NamedTuple
 
 import numpy as np
 
@@ -66,10 +67,16 @@ class _Held:
 HELD = _Held()
 _NOBODY = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
 
-#: The target on the way to, the way there, and when it was last known to be a
-#: shortest way (``MapBelief.stamp``).
-_Hint = tuple[int, Sequence[int], tuple[int, int] | None]
 _Found = tuple[int, Sequence[int]] | _Held | None
+
+
+class Finders(NamedTuple):
+    """How a blocked agent's target is found: the target search, ranking it against
+    the ``team``, or the ``roadmap`` (the paper's way) when there is one."""
+
+    search: TargetSearch
+    team: Team
+    roadmap: Roadmap | None
 
 
 class Targets:
@@ -83,9 +90,7 @@ class Targets:
         stacks: btp.BtpStacks,
         traffic: Traffic,
         alive: StayingAlive,
-        search: TargetSearch,
-        roadmap: Roadmap | None,
-        team: Team,
+        finders: Finders,
         events: list[PlannerEvent],
     ) -> None:
         self.belief = belief
@@ -93,9 +98,7 @@ class Targets:
         self._stacks = stacks
         self._traffic = traffic
         self._alive = alive
-        self._search = search
-        self._roadmap = roadmap
-        self._team = team
+        self._search, self._team, self._roadmap = finders
         self._claims = traffic.claims
         self._events = events
         self._tiers = _TIERS[settings.target_policy]
@@ -141,7 +144,7 @@ class Targets:
         a.mode = IDLE
         return WAIT
 
-    def _hint(self, a: AgentRecord, previous: int | None, old_path: deque[int]) -> _Hint | None:
+    def _hint(self, a: AgentRecord, previous: int | None, old_path: deque[int]) -> Hint | None:
         """Still on the way to ``previous``: the search may be skipped when it would
         surely return it again (``TargetSearch.run``)."""
         if (
@@ -150,7 +153,7 @@ class Targets:
             and old_path[-1] == previous
             and abs(old_path[0] - a.index) in (1, self.belief.stride)
         ):
-            return (previous, old_path, a.path_known_at)
+            return Hint(previous, old_path, a.path_known_at)
         return None
 
     def _pool(self, tier: _Tier, a: AgentRecord) -> Collection[int]:
@@ -226,7 +229,7 @@ class Targets:
         self,
         a: AgentRecord,
         pool: Iterable[int] | None,
-        hint: tuple[int, Sequence[int], tuple[int, int] | None] | None = None,
+        hint: Hint | None = None,
     ) -> tuple[int, Sequence[int]] | _Held | None:
         """The closest target of ``pool`` (None: every uncovered cell) that the agent
         can afford, preferring those no other working agent is closer to (they are
@@ -246,7 +249,7 @@ class Targets:
         floor, best_cost = self.settings.reserve_pct - _EPS, self._best_move_cost()
         energy = Energy(a.battery_pct, self._move_cost(a), floor, best_cost, self._range_budget_pct)
         others = self._team.others(a.slot) if spread else _NOBODY
-        heading = Hint(*hint) if hint is not None and pool is None else None
+        heading = hint if pool is None else None
         request = SearchRequest(a.index, energy, others, hold, list(self._claims), pool, heading)
         found = self._search.run(request, a.search_memory)
         if found is None:

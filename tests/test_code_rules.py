@@ -133,3 +133,59 @@ def test_the_lower_layers_are_tested_on_their_own(tests: str, allowed: set[str])
         for name in sorted((_imported(path) & product) - allowed)
     ]
     assert offenders == []
+
+
+#: Functions that are argparse tables: one ``add_argument`` after another, read as a list.
+ARGPARSE_TABLES = {"gcs/options/run.py:register", "gcs/options/bench.py:_perf"}
+
+
+def _functions(package: str) -> list[tuple[str, ast.FunctionDef | ast.AsyncFunctionDef]]:
+    found = []
+    for path in sorted((ROOT / package).rglob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                found.append((f"{path.relative_to(ROOT)}:{node.name}", node))
+    return found
+
+
+def _lines(node: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    return (node.end_lineno or node.lineno) - node.lineno + 1
+
+
+def test_each_planner_module_reads_in_a_sitting() -> None:
+    """No module of the planner over 400 lines."""
+    long = [
+        f"{path.relative_to(ROOT)}: {n}"
+        for path in sorted((ROOT / "planner").rglob("*.py"))
+        if (n := len(path.read_text(encoding="utf-8").splitlines())) > 400
+    ]
+    assert long == []
+
+
+def test_no_function_is_over_60_lines() -> None:
+    """Docstrings included; argparse tables (``ARGPARSE_TABLES``) excepted."""
+    long = [
+        f"{where}: {_lines(node)}"
+        for package in PACKAGES
+        for where, node in _functions(package)
+        if _lines(node) > 60 and where not in ARGPARSE_TABLES
+    ]
+    assert long == []
+
+
+def test_no_compiled_kernel_takes_over_8_parameters() -> None:
+    """numba kernels take their arrays in bundles (``planner/speed/kernel_args.py``)."""
+
+    def is_kernel(node: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
+        return any(
+            "njit" in ast.unparse(decorator) or "jit" in ast.unparse(decorator)
+            for decorator in node.decorator_list
+        )
+
+    wide = [
+        f"{where}: {len(node.args.args)}"
+        for where, node in _functions("planner")
+        if is_kernel(node) and len(node.args.args) + len(node.args.kwonlyargs) > 8
+    ]
+    assert wide == []

@@ -234,3 +234,27 @@ def nearest_manhattan(rows: np.ndarray, cols: np.ndarray, r: int, c: int) -> int
         if m < nearest:
             nearest = m
     return nearest
+
+
+@njit(cache=True, nogil=True)
+def moved_within(
+    rows0: np.ndarray,
+    cols0: np.ndarray,
+    others0: np.ndarray,
+    rows: np.ndarray,
+    cols: np.ndarray,
+    working: np.ndarray,
+    slot: int,
+    margin: int,
+) -> bool:
+    """``HorizonMemo``'s test: none of ``others0`` stopped working, and the largest
+    move of one of them (Manhattan) plus the move of ``slot`` is within ``margin``."""
+    farthest = 0
+    for j in range(rows.size):
+        if others0[j]:
+            if not working[j]:
+                return False
+            m = abs(rows[j] - rows0[j]) + abs(cols[j] - cols0[j])
+            if m > farthest:
+                farthest = m
+    return farthest + abs(rows[slot] - rows0[slot]) + abs(cols[slot] - cols0[slot]) <= margin

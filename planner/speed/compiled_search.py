@@ -22,6 +22,7 @@ from planner.speed.bounds import (
     way_at_least,
 )
 from planner.speed.confirmation import Confirmations
+from planner.speed.kernel_args import EnergyTerms, Pool, Rivals
 from planner.speed.memory import AgentMemory, HorizonMemo, WayMemo
 from planner.speed.search_kernels import (
     path_search,
@@ -120,13 +121,14 @@ class CompiledSearch(Confirmations):
     def _search(
         self,
         request: SearchRequest,
-        energy: tuple[float, float, float, float, float],
+        energy: EnergyTerms,
         used: tuple[HorizonMemo | None, WayMemo | None],
     ) -> Found | None:
         """``run`` without the settled target: ``used``, the agent's memos in use."""
         self._alone = False
         memo, way_memo = used
         start, others, hold, pool = request.start, request.others, request.hold, request.pool
+        rivals = (others[0], others[1], hold)
         hint = request.hint if pool is None else None
         mask, listed, margin, cells = self._candidates(pool, memo)
         claimed = np.array(request.excluded, dtype=np.int64)
@@ -136,11 +138,8 @@ class CompiledSearch(Confirmations):
         # the claimed cells masked out, as the search does.
         try:
             if hint is not None and self.shortcuts_taken.confirm:
-                goal, way, known_at = hint
-                sure = self._confirm(
-                    start, goal, way, known_at, listed, margin, memo, energy, others, hold,
-                    claimed, way_memo,
-                )  # fmt: skip
+                shortlist = (listed, margin, memo)
+                sure = self._confirm(start, hint, shortlist, energy, rivals, (claimed, way_memo))
                 if sure is not None:
                     self.counts.confirmed += 1
                     return sure
@@ -149,10 +148,10 @@ class CompiledSearch(Confirmations):
                     if renewed is not None:
                         listed, margin = renewed, -1
             if pool is None and hold > 0 and others[0].size and self.shortcuts_taken.left_to_others:
-                known, found = self._all_left_to_others(start, energy, others, hold)
+                known, found = self._all_left_to_others(start, energy, rivals)
                 if known:
                     return found
-            rank, cell, kept = self._ranked(request, energy, (mask, listed, cells), margin)
+            rank, cell, kept = self._ranked(start, energy, rivals, (mask, listed, cells), margin)
         finally:
             mask[claimed] = saved
             if pool is not None:
@@ -177,7 +176,7 @@ class CompiledSearch(Confirmations):
             listed = memo.shortlist(self.belief) if memo is not None else None
             if listed is not None:
                 return self.candidate, listed, -1, uncovered
-            margin = HorizonMemo.MARGIN if memo is not None else -1
+            margin = memo.MARGIN if memo is not None else -1
             return self.candidate, uncovered, margin, uncovered
         cells = np.array(list(pool), dtype=np.int64)
         self._pool_mask[cells] = 1
@@ -185,21 +184,21 @@ class CompiledSearch(Confirmations):
 
     def _ranked(
         self,
-        request: SearchRequest,
-        energy: tuple[float, float, float, float, float],
-        pool: tuple[np.ndarray, np.ndarray, np.ndarray],
+        start: int,
+        energy: EnergyTerms,
+        rivals: Rivals,
+        pool: Pool,
         margin: int,
     ) -> tuple[int, int, int]:
         """The full search (``ranked_search``): (rank, cell, cells kept)."""
         self.stamp += 1
         self.counts.searches += 1
-        others = request.others
         return ranked_search(  # type: ignore[no-any-return]
             self.grid,
             pool,
-            request.start,
+            start,
             energy,
-            (others[0], others[1], request.hold),
+            rivals,
             self._scratch,
             self.stamp,
             (margin, self._kept, self._few, self._spare),
@@ -209,7 +208,7 @@ class CompiledSearch(Confirmations):
         self,
         start: int,
         hint: tuple[int, Sequence[int], tuple[int, int] | None],
-        energy: tuple[float, float, float, float, float],
+        energy: EnergyTerms,
         excluded: Sequence[int],
         settled: SettledTarget,
     ) -> bool:
@@ -245,7 +244,7 @@ class CompiledSearch(Confirmations):
         settled: SettledTarget,
         start: int,
         found: Found | None,
-        energy: tuple[float, float, float, float, float],
+        energy: EnergyTerms,
         excluded: Sequence[int],
     ) -> None:
         """Keep what the check just proved (while no other agent works)."""

@@ -16,7 +16,7 @@ from planner.speed.bounds import (
     rivals_listed,
     surely_affordable,
 )
-from planner.speed.kernel_args import Rivals
+from planner.speed.kernel_args import EnergyTerms, Rivals
 from planner.speed.memory import HorizonMemo, WayMemo
 from planner.speed.search_kernels import (
     SPARE_MARKS,
@@ -30,7 +30,11 @@ from planner.speed.walks import (
 from planner.target_search import (
     HELD_BACK,
     Found,
+    Hint,
 )
+
+#: The cells the horizon pass reads, its margin (-1: keep nothing) and the agent's memo.
+Shortlist = tuple[np.ndarray, int, HorizonMemo | None]
 
 
 class Confirmations(SearchScratch):
@@ -39,22 +43,18 @@ class Confirmations(SearchScratch):
     def _confirm(
         self,
         start: int,
-        goal: int,
-        way: Sequence[int],
-        known_at: tuple[int, int] | None,
-        listed: np.ndarray,
-        margin: int,
-        memo: HorizonMemo | None,
-        energy: tuple[float, float, float, float, float],
-        others: tuple[np.ndarray, np.ndarray],
-        hold: int,
-        claimed: np.ndarray,
-        way_memo: WayMemo | None,
+        hint: Hint,
+        shortlist: Shortlist,
+        energy: EnergyTerms,
+        rivals: Rivals,
+        kept_along: tuple[np.ndarray, WayMemo | None],
     ) -> Found | None:
         """What the search from ``start`` would return, found without it when the
-        agent is on ``way`` to ``goal``; None when only the search can tell.
-        ``claimed``: the cells masked out as claimed by others; ``way_memo``: the
-        agent's candidates near its way, used and renewed here.
+        agent is on the ``hint``'s way to its goal; None when only the search can
+        tell. ``shortlist``: the cells the horizon pass reads, its margin and the
+        agent's ``HorizonMemo``; ``kept_along``: the cells masked out as claimed by
+        others, and the agent's candidates near its way (``WayMemo``), used and
+        renewed here.
 
         The search returns the first uncontested candidate it reaches (rank 0)
         or, when there is none, the first of the next rank. ``goal`` ranks so
@@ -68,34 +68,31 @@ class Confirmations(SearchScratch):
         ``way`` is the answer as it stands if it is still a shortest way
         (``_still_shortest``).
         """
+        goal, way, known_at = hint
         moves = len(way)
-        ranked = self._rank_at_end(goal, moves, energy, others, hold)
+        ranked = self._rank_at_end(goal, moves, energy, rivals)
         if ranked is None:
             return None
         rank, limit = ranked
-        rivals = (others[0], others[1], hold)
-        shortlist = (listed, margin, memo)
         if rank > 0 and not self._none_uncontested(start, shortlist, energy, rivals):
             return None
         ask = (start, goal, moves, limit)
-        count = self._rivals_near(ask, listed, rank == 0, energy, rivals, (claimed, way_memo))
-        if count == self.RIVALS:
+        count = self._rivals_near(ask, shortlist[0], rank == 0, energy, rivals, kept_along)
+        if count == self.rivals_most:
             return None  # too many to look at one by one: the search is as quick
         if self._still_shortest(start, goal, moves, known_at):
+            way_memo = kept_along[1]
             tie = None if way_memo is None else way_memo.tie
-            return self._first_on_way(start, goal, way, count, rank, hold, others, energy, tie)
+            return self._first_on_way(start, goal, way, count, rank, rivals, energy, tie)
         self._rivals[count] = goal
-        return self._first_among(
-            start, self._rivals[: count + 1], moves, rank, hold, others, energy, way
-        )
+        return self._first_among(start, self._rivals[: count + 1], moves, rank, rivals, energy, way)
 
     def _rank_at_end(
         self,
         goal: int,
         moves: int,
-        energy: tuple[float, float, float, float, float],
-        others: tuple[np.ndarray, np.ndarray],
-        hold: int,
+        energy: EnergyTerms,
+        rivals: Rivals,
     ) -> tuple[int, int] | None:
         """``goal``'s rank ``moves`` away, and the ``limit`` of the rivals that may
         outrank it (``rivals_listed``); None when only the search can tell."""
@@ -108,7 +105,7 @@ class Confirmations(SearchScratch):
         if battery - cost * (moves + back) < floor:
             return None  # perhaps a shorter way now: let the search tell
         stride = self.belief.stride
-        rows, cols = others
+        rows, cols, hold = rivals
         near = nearest_manhattan(rows, cols, goal // stride - 1, goal % stride - 1)
         if rows.size == 0 or near >= moves:
             return 0, UNREACHED
@@ -121,8 +118,8 @@ class Confirmations(SearchScratch):
     def _none_uncontested(
         self,
         start: int,
-        shortlist: tuple[np.ndarray, int, HorizonMemo | None],
-        energy: tuple[float, float, float, float, float],
+        shortlist: Shortlist,
+        energy: EnergyTerms,
         rivals: Rivals,
     ) -> bool:
         """Is no candidate uncontested, however far? The search's horizon pass
@@ -146,12 +143,12 @@ class Confirmations(SearchScratch):
         ask: tuple[int, int, int, int],
         listed: np.ndarray,
         uncontested: bool,
-        energy: tuple[float, float, float, float, float],
+        energy: EnergyTerms,
         rivals: Rivals,
         kept_along: tuple[np.ndarray, WayMemo | None],
     ) -> int:
         """How many candidates might come before the goal (``rivals_listed``), put
-        in ``_rivals``; ``RIVALS`` when there are too many. ``kept_along``: the
+        in ``_rivals``; ``rivals_most`` when there are too many. ``kept_along``: the
         cells claimed now and the agent's ``WayMemo`` (read and renewed)."""
         start, goal, moves, _ = ask
         candidate, found_in = self.candidate, self._rivals[:-1]
@@ -190,9 +187,8 @@ class Confirmations(SearchScratch):
         way: Sequence[int],
         count: int,
         rank: int,
-        hold: int,
-        others: tuple[np.ndarray, np.ndarray],
-        energy: tuple[float, float, float, float, float],
+        rivals: Rivals,
+        energy: EnergyTerms,
         tie: SettledTie | None,
     ) -> Found | None:
         """The answer when ``way`` is still a shortest way to ``goal`` and ``count``
@@ -205,7 +201,7 @@ class Confirmations(SearchScratch):
         # as near whose way comes first in the search's order (left to the
         # search below). Bounded to the ways to the rivals alone, the search
         # leaves out the cells near the way to the target.
-        found = self._first_among(start, self._rivals[:count], moves, rank, hold, others, energy)
+        found = self._first_among(start, self._rivals[:count], moves, rank, rivals, energy)
         if found is None:
             self._alone = True
             return Found(rank, goal, way)
@@ -218,7 +214,7 @@ class Confirmations(SearchScratch):
             return Found(rank, goal, way)
         self._rivals[:2] = rival, goal
         pair = self._rivals[:2]
-        found = self._first_among(start, pair, moves, rank, hold, others, energy, way)
+        found = self._first_among(start, pair, moves, rank, rivals, energy, way)
         if tie is not None:
             if found is not None and found[1] == goal:
                 tie.keep(self._way_cells(start, moves), rival, self.belief)
@@ -246,9 +242,8 @@ class Confirmations(SearchScratch):
     def _all_left_to_others(
         self,
         start: int,
-        energy: tuple[float, float, float, float, float],
-        others: tuple[np.ndarray, np.ndarray],
-        hold: int,
+        energy: EnergyTerms,
+        rivals: Rivals,
     ) -> tuple[bool, Found | None]:
         """``(True, what the search returns)`` when every candidate is surely left
         to another agent (within ``hold`` of one, and nearer to it), else
@@ -265,7 +260,7 @@ class Confirmations(SearchScratch):
         """
         candidate, full = self.candidate, self.uncovered_list[: self.belief.uncovered_count]
         found = self._rivals[: self.LEFT_TO_OTHERS]
-        grid, rivals, out = self.grid, (others[0], others[1], hold), (found, self._no_near)
+        grid, hold, out = self.grid, rivals[2], (found, self._no_near)
         better = (start, -1, UNREACHED, hold + 1)
         if rivals_listed(candidate, full, better, grid, rivals, energy, out)[0]:
             return False, None  # some may rank better
@@ -282,9 +277,7 @@ class Confirmations(SearchScratch):
         bound = UNREACHED
         if cost > 0:  # the farthest any of them can be afforded, and a move to spare
             bound = int((battery - floor) / cost) - int(self.home[targets].min()) + 1
-        rank, _ = self._first_reached(
-            start, targets, min(bound, UNREACHED), 2, hold, others, energy
-        )
+        rank, _ = self._first_reached(start, targets, min(bound, UNREACHED), 2, rivals, energy)
         return True, None if rank < 0 else HELD_BACK
 
     def _still_shortest(

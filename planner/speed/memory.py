@@ -6,42 +6,17 @@ near its way (``WayMemo``) and the target the last check proved
 
 from __future__ import annotations
 
-import numpy as np
-from numba import njit
+from typing import Final
 
-from core.cells import CellState
+import numpy as np
+
 from planner.belief import MapBelief
+from planner.speed.bounds import moved_within
 from planner.speed.settled_target import SettledTarget, SettledTie
 from planner.target_search import (
     SearchMemory,
 )
 from planner.team import Team
-
-_FREE = int(CellState.FREE)
-
-
-@njit(cache=True, nogil=True)
-def moved_within(
-    rows0: np.ndarray,
-    cols0: np.ndarray,
-    others0: np.ndarray,
-    rows: np.ndarray,
-    cols: np.ndarray,
-    working: np.ndarray,
-    slot: int,
-    margin: int,
-) -> bool:
-    """``HorizonMemo``'s test: none of ``others0`` stopped working, and the largest
-    move of one of them (Manhattan) plus the move of ``slot`` is within ``margin``."""
-    farthest = 0
-    for j in range(rows.size):
-        if others0[j]:
-            if not working[j]:
-                return False
-            m = abs(rows[j] - rows0[j]) + abs(cols[j] - cols0[j])
-            if m > farthest:
-                farthest = m
-    return farthest + abs(rows[slot] - rows0[slot]) + abs(cols[slot] - cols0[slot]) <= margin
 
 
 class HorizonMemo:
@@ -56,7 +31,7 @@ class HorizonMemo:
     plus the cells that became uncovered since gives the same horizon.
     """
 
-    MARGIN = 16
+    MARGIN: Final = 16
 
     def __init__(self, team: Team, slot: int) -> None:
         self._team = team

@@ -69,7 +69,6 @@ def uncontested_horizon(
     r0 = start // stride - 1
     c0 = start % stride - 1
     horizon = -1
-    n = others_r.size
     count = 0
     closer = 0  # the agent found nearer than us last: neighbouring candidates likely share it
     for k in range(listed.size):
@@ -82,17 +81,7 @@ def uncontested_horizon(
         floor = mine - margin if margin > 0 else mine
         if abs(r - others_r[closer]) + abs(c - others_c[closer]) < floor:
             continue
-        nearest_other = UNREACHED
-        for i in range(n):
-            j = closer + i
-            if j >= n:
-                j -= n
-            m = abs(r - others_r[j]) + abs(c - others_c[j])
-            if m < nearest_other:
-                nearest_other = m
-                if m < floor:
-                    closer = j
-                    break
+        nearest_other, closer = _nearest_unless_under(r, c, rivals, closer, floor)
         if nearest_other < floor:
             continue
         if margin >= 0:
@@ -108,6 +97,28 @@ def uncontested_horizon(
 
 
 @njit(cache=True, nogil=True)
+def _nearest_unless_under(
+    r: int, c: int, rivals: Rivals, closer: int, floor: int
+) -> tuple[int, int]:
+    """The Manhattan distance from (``r``, ``c``) to the nearest other agent, tried
+    from the one at ``closer`` on, and ``closer``; as soon as one is nearer than
+    ``floor``, that one's distance and index."""
+    others_r, others_c, _ = rivals
+    n = others_r.size
+    nearest_other = UNREACHED
+    for i in range(n):
+        j = closer + i
+        if j >= n:
+            j -= n
+        m = abs(r - others_r[j]) + abs(c - others_c[j])
+        if m < nearest_other:
+            nearest_other = m
+            if m < floor:
+                return m, j
+    return nearest_other, closer
+
+
+@njit(cache=True, nogil=True)
 def ranked_search(
     grid: Grid,
     pool: Pool,
@@ -118,45 +129,25 @@ def ranked_search(
     stamp: int,
     aside: SearchAside,
 ) -> tuple[int, int, int]:
-    """Returns (rank, cell) of the best target, or (-1, -1), and the count of
-    cells ``uncontested_horizon`` kept (-1 if it did not keep any).
-
-    ``pool``: the candidates' mask, the cells the horizon pass reads (``listed``:
-    perhaps a shortlist of those that may be uncontested) and every candidate.
-    ``aside``: the horizon pass's ``margin`` and ``kept`` (``HorizonMemo``), and
-    scratch for the shortcuts, a list and a second ``seen``, ``queue`` and
-    ``parent`` whose marks are ``SPARE_MARKS * stamp`` and up: once the first
-    lesser target is known, ``none_uncontested`` may prove that no candidate
-    within the horizon is uncontested, without searching out to it; and when
-    the search has gone far without finding any target but those left to
-    others (in a crowd), ``first_lesser`` may find the first lesser one
-    directly (``_lesser_first``).
-    """
-    state, stride, _ = grid
+    """(rank, cell) of the best target, or (-1, -1), and the count of cells
+    ``uncontested_horizon`` kept (-1: none kept). ``pool``: ``kernel_args.Pool``;
+    ``aside``: the horizon pass's ``margin`` and ``kept`` (``HorizonMemo``), and the
+    shortcuts' scratch (``_settled_at``, ``_lesser_first``), a list and a second
+    ``seen``, ``queue`` and ``parent`` whose marks are ``SPARE_MARKS * stamp`` and up."""
     candidate = pool[0]
     seen, parent, queue = scratch
     hold = rivals[2]
-    steps = (-stride, stride, 1, -1)
-    best1 = -1
-    best2 = -1
-    # Beyond ``horizon`` no target can be uncontested (rank 0): once the best
-    # lesser target is known, stop there instead of searching the whole map.
-    # Worked out when first needed (most searches end at an uncontested target).
-    horizon = UNREACHED
-    kept_count = -1
-    seen[start] = stamp
-    queue[0] = start
-    head = 0
-    tail = 1
-    # ``distance`` is that of the cells being expanded; ``level_end`` is where
-    # the cells one move farther start in the queue.
-    level_end = 1
-    distance = 0
+    best1, best2 = -1, -1
+    # Beyond ``horizon`` (worked out when first needed) no target can be uncontested:
+    # once the best lesser target is known, the search stops there.
+    horizon, kept_count = UNREACHED, -1
+    seen[start], queue[0] = stamp, start
+    # ``distance``: the cells' being expanded; ``level_end``: where those one farther start.
+    head, tail, level_end, distance = 0, 1, 1, 0
     jumped = False
     while head < tail:
         if head == level_end:
-            level_end = tail
-            distance += 1
+            level_end, distance = tail, distance + 1
             if distance + 1 > horizon and (best1 >= 0 or (hold == 0 and best2 >= 0)):
                 break
             if not jumped and best1 < 0 and hold > 0 and tail > JUMP_AFTER:
@@ -166,47 +157,43 @@ def ranked_search(
                 )
                 if rank >= 0:
                     return rank, v, kept_count
-        u = queue[head]
+        first, tail = tail, _expand(queue[head], grid, scratch, tail, stamp)
         head += 1
-        d = distance + 1
-        for k in range(4):
-            v = u + steps[k]
-            if state[v] != _FREE or seen[v] == stamp:
-                continue
-            seen[v] = stamp
-            parent[v] = u
-            queue[tail] = v
-            tail += 1
-            if candidate[v] == 0:
-                continue
-            rank = _affordable_rank(v, d, grid, rivals, energy)
-            if rank < 0:
+        for i in range(first, tail):
+            v = queue[i]
+            rank = _affordable_rank(v, distance + 1, grid, rivals, energy) if candidate[v] else -1
+            if rank < 0 or (rank == 1 and best1 >= 0) or (rank == 2 and best2 >= 0):
                 continue
             if rank == 0:
                 return 0, v, kept_count
-            if rank == 1:
-                if best1 >= 0:
-                    continue
-                best1 = v
-            else:
-                if best2 >= 0:
-                    continue
-                best2 = v
-                if hold > 0:
-                    continue  # left to others: the answer only if nothing ranks better
+            best1, best2 = (v, best2) if rank == 1 else (best1, v)
+            if rank == 2 and hold > 0:
+                continue  # left to others: the answer only if nothing ranks better
             # The first of the next rank: search on only as far as the horizon,
             # or not at all when no candidate within it is uncontested.
-            mark = SPARE_MARKS * (stamp + 1) - 1
             horizon, kept_count, settled = _settled_at(
-                grid, pool, start, energy, rivals, aside, d, mark
+                grid, pool, start, energy, rivals, aside, distance + 1, stamp
             )
             if settled:
                 return rank, v, kept_count
-    if best1 >= 0:
-        return 1, best1, kept_count
-    if best2 >= 0:
-        return 2, best2, kept_count
-    return -1, -1, kept_count
+    return (1, best1, kept_count) if best1 >= 0 else (2 if best2 >= 0 else -1, best2, kept_count)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _expand(u: int, grid: Grid, scratch: Scratch, tail: int, stamp: int) -> int:
+    """Queue the free neighbours of ``u`` not yet seen (N, S, E, W), from ``u``;
+    returns the queue's new end."""
+    state, stride, _ = grid
+    seen, parent, queue = scratch
+    for step in (-stride, stride, 1, -1):
+        v = u + step
+        if state[v] != _FREE or seen[v] == stamp:
+            continue
+        seen[v] = stamp
+        parent[v] = u
+        queue[tail] = v
+        tail += 1
+    return tail
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -231,11 +218,12 @@ def _settled_at(
     rivals: Rivals,
     aside: SearchAside,
     d: int,
-    mark: int,
+    stamp: int,
 ) -> tuple[int, int, bool]:
     """``uncontested_horizon``'s (horizon, kept count), and whether a lesser target
     ``d`` moves away is the answer: beyond the horizon, or no candidate at all is
-    uncontested (``none_uncontested``, its marks from ``mark``)."""
+    uncontested (``none_uncontested``, its mark the last of ``stamp``'s spare marks)."""
+    mark = SPARE_MARKS * (stamp + 1) - 1
     candidate, listed, _ = pool
     margin, kept, found, spare = aside
     horizon, kept_count = uncontested_horizon(candidate, listed, start, grid, rivals, margin, kept)

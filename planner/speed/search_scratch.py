@@ -5,11 +5,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Final
 
 import numpy as np
 
 from planner.belief import MapBelief
-from planner.speed.kernel_args import Grid, Scratch
+from planner.speed.kernel_args import EnergyTerms, Grid, Rivals, Scratch
 from planner.speed.landmarks import Landmarks
 from planner.speed.search_kernels import (
     unwind,
@@ -44,12 +45,12 @@ class SearchScratch:
     #: bounded walks to them (``first_among``, mostly the search back) cost
     #: far less than the search of everything within the way's length (rooms
     #: 1000x1000 with 10 agents: 20 thousand such searches, 2.3 ms each, at 128).
-    RIVALS = 1024
+    RIVALS: Final = 1024
     #: Most candidates ``_all_left_to_others`` lists; it passes over every
     #: uncovered cell, and a longer list only makes it give up later.
-    LEFT_TO_OTHERS = 128
-    FEW = 512
-    LIST_COST = 8
+    LEFT_TO_OTHERS: Final = 128
+    FEW: Final = 512
+    LIST_COST: Final = 8
 
     def __init__(self, belief: MapBelief) -> None:
         size = len(belief.state)
@@ -69,6 +70,8 @@ class SearchScratch:
         #: Candidates that might outrank the target on the way (``_confirm``),
         #: with a place for the target.
         self._rivals = np.zeros(self.RIVALS + 1, dtype=np.int64)
+        #: ``RIVALS`` for this search (with ``_rivals`` to match, a test looks at fewer).
+        self.rivals_most = self.RIVALS
         #: The candidates ``ranked_search``'s shortcuts look at one by one (at most its size).
         self._few = np.zeros(self.FEW, dtype=np.int64)
         self._no_near = np.zeros(0, dtype=np.int64)  # ``rivals_listed`` keeps none
@@ -88,14 +91,25 @@ class SearchScratch:
         #: The distances from the landmarks (``Landmarks.lands``), brought up to
         #: date at the start of each ``run`` and ``path``.
         self.lands = self.landmarks.lands
+        #: The belief's counts when ``lands`` was last brought up to date: while
+        #: they stand, ``Landmarks.update`` has nothing to do.
+        self._lands_at = (-1, -1, -1)
         #: The map as the kernels read it (``kernel_args.Grid``), with ``lands``.
         self.grid: Grid = (self.state, belief.stride, self.lands)
         self._scratch: Scratch = (self.seen, self.parent, self.queue)
 
     def update_lands(self) -> np.ndarray:
         """Bring the distances from the landmarks up to date (``lands``, ``grid``)."""
-        self.lands = self.landmarks.update()
-        self.grid = (self.state, self.belief.stride, self.lands)
+        belief = self.belief
+        added, blocked, free = self._lands_at
+        if (
+            belief.added_count != added
+            or belief.blocked_count != blocked
+            or belief.free_count != free
+        ):
+            self.lands = self.landmarks.update()
+            self.grid = (self.state, belief.stride, self.lands)
+            self._lands_at = (belief.added_count, belief.blocked_count, belief.free_count)
         return self.lands
 
     def _unwind(self, start: int, goal: int) -> list[int]:
@@ -128,14 +142,13 @@ class SearchScratch:
         targets: np.ndarray,
         bound: int,
         rank: int,
-        hold: int,
-        others: tuple[np.ndarray, np.ndarray],
-        energy: tuple[float, float, float, float, float],
+        rivals: Rivals,
+        energy: EnergyTerms,
         way: Sequence[int] = (),
     ) -> Found | None:
         """``first_among`` with this search's scratch arrays: (rank, cell, path),
         the path ``way`` when that is one as short (``_way_to``)."""
-        rank, cell = self._first_reached(start, targets, bound, rank, hold, others, energy)
+        rank, cell = self._first_reached(start, targets, bound, rank, rivals, energy)
         return None if rank < 0 else Found(rank, cell, self._way_to(start, cell, way))
 
     def _first_reached(
@@ -144,9 +157,8 @@ class SearchScratch:
         targets: np.ndarray,
         bound: int,
         rank: int,
-        hold: int,
-        others: tuple[np.ndarray, np.ndarray],
-        energy: tuple[float, float, float, float, float],
+        rivals: Rivals,
+        energy: EnergyTerms,
     ) -> tuple[int, int]:
         """``first_among`` with this search's scratch arrays: (rank, cell), the way
         there left in ``parent``."""
@@ -154,5 +166,4 @@ class SearchScratch:
         self.stamp += AMONG_MARKS
         self.counts.bounded += 1
         walk = (start, bound, rank, stamp)
-        rivals = (others[0], others[1], hold)
         return first_among(self.grid, self.candidate, targets, walk, rivals, energy, self._scratch)

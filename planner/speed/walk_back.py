@@ -226,11 +226,29 @@ def first_tied(
     nowhere by any way there), finds the first of these ways: the same
     target, by the same path.
     """
-    start, bound, rank, stamp = walk
-    state, stride, lands = grid
-    seen, parent, stack = scratch
+    start, stride, lands = walk[0], grid[1], grid[2]
+    taken, ranks = _taken_at(grid, candidate, targets, walk, rivals, energy)
+    if taken.size == 0:
+        return -1, -1
+    if mostly_away(taken, start, stride, lands):
+        return descent(grid, taken, ranks, walk, scratch)  # type: ignore[no-any-return]
+    return _walk_tied(grid, taken, ranks, walk, scratch)
+
+
+@njit(cache=True, nogil=True)
+def _taken_at(
+    grid: Grid,
+    candidate: np.ndarray,
+    targets: np.ndarray,
+    walk: Walk,
+    rivals: Rivals,
+    energy: EnergyTerms,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The targets ``first_tied`` may take (by the lower bounds ``bound`` moves away,
+    affordable and ranking ``rank`` or better there) and their ranks there."""
+    start, bound, rank, _ = walk
+    stride, lands = grid[1], grid[2]
     n = targets.size
-    # The targets that may be taken (reached at ``bound`` moves, it is their rank there).
     taken = np.empty(n, dtype=np.int64)
     ranks = np.empty(n, dtype=np.int64)
     count = 0
@@ -243,10 +261,18 @@ def first_tied(
             taken[count] = t
             ranks[count] = found
             count += 1
-    if count == 0:
-        return -1, -1
-    if mostly_away(taken[:count], start, stride, lands):
-        return descent(grid, taken[:count], ranks, walk, scratch)
+    return taken[:count], ranks[:count]
+
+
+@njit(cache=True, nogil=True)
+def _walk_tied(
+    grid: Grid, taken: np.ndarray, ranks: np.ndarray, walk: Walk, scratch: Scratch
+) -> tuple[int, int]:
+    """``first_tied``'s depth-first walk to the ``taken`` targets, ``bound`` moves
+    away, over the cells on a way to one of them that short."""
+    start, bound, _, stamp = walk
+    state, stride, lands = grid
+    seen, parent, stack = scratch
     steps = (-stride, stride, 1, -1)
     tried = np.zeros(bound + 1, dtype=np.int8)  # the moves tried from each cell of the walk
     seen[start] = stamp
@@ -264,7 +290,7 @@ def first_tied(
             continue
         d = depth + 1
         on_way = -1
-        for i in range(count):
+        for i in range(taken.size):
             if way_within(v, taken[i], bound - d, stride, lands):
                 on_way = i
                 break

@@ -66,22 +66,8 @@ def first_lesser(
     """
     found, spare, mark = aside
     seen, queue, parent = spare
-    _, stride, lands = grid
-    hold = rivals[2]
-    limit = hold + 1
-    closer = 0
-    least = UNREACHED
-    for k in range(everyone.size):
-        v = everyone[k]
-        if candidate[v] == 0:
-            continue
-        mine = way_at_least(v, start, stride, lands)
-        if mine >= least:
-            continue
-        closer = may_rival(v, mine, limit, grid, rivals, closer, energy)
-        if closer < 0:
-            least = mine
-            closer = 0
+    limit = rivals[2] + 1
+    least = _least_lesser(grid, candidate, everyone, start, rivals, energy)
     if least == UNREACHED:
         return -1, -1, -1
     slack = 0
@@ -106,6 +92,35 @@ def first_lesser(
             return rank, cell, d
         slack = 2 * slack + 1
     return -1, -1, -1
+
+
+@njit(cache=True, nogil=True)
+def _least_lesser(
+    grid: Grid,
+    candidate: np.ndarray,
+    everyone: np.ndarray,
+    start: int,
+    rivals: Rivals,
+    energy: EnergyTerms,
+) -> int:
+    """The least lower bound (``way_at_least``) of the candidates that may rank 1
+    or better (``may_rival``), ``first_lesser``'s first bound; ``UNREACHED`` if none."""
+    _, stride, lands = grid
+    limit = rivals[2] + 1
+    closer = 0
+    least = UNREACHED
+    for k in range(everyone.size):
+        v = everyone[k]
+        if candidate[v] == 0:
+            continue
+        mine = way_at_least(v, start, stride, lands)
+        if mine >= least:
+            continue
+        closer = may_rival(v, mine, limit, grid, rivals, closer, energy)
+        if closer < 0:
+            least = mine
+            closer = 0
+    return least
 
 
 @njit(cache=True, nogil=True)
@@ -176,7 +191,7 @@ def first_among(
     tell, ``first_reached``, breadth-first from the start. The search back
     is the cheaper one wherever the ways go: it tests each cell's lower
     bound to the start alone, where the search forward tests it to each
-    target in turn (up to ``TargetSearch.RIVALS``), and on open ground,
+    target in turn (up to ``SearchScratch.RIVALS``), and on open ground,
     where either covers the rectangle between the ends, it is as quick
     (rooms 1000x1000 with 50 agents, where the ways do not lead away from a
     landmark: 5.1 s for 16392 such searches back against 8.2 s forward,
@@ -243,10 +258,9 @@ def reached_within(
     by the search over the whole map. (``walk``'s bound is not read.)
     """
     start, _, rank, stamp = walk
-    state, stride, lands = grid
+    state, stride, _ = grid
     seen, parent, queue = scratch
     steps = (-stride, stride, 1, -1)
-    n = targets.size
     toward = 0
     seen[start] = stamp
     queue[0] = start
@@ -265,31 +279,43 @@ def reached_within(
             v = u + steps[k]
             if state[v] != _FREE or seen[v] == stamp:
                 continue
-            within = False
-            for i in range(n):
-                j = toward + i
-                if j >= n:
-                    j -= n
-                if way_within(v, targets[j], bounds[j] - d, stride, lands):
-                    toward = j  # neighbouring cells likely lie on the way to it too
-                    within = True
-                    break
-            if not within:
+            on_way = _on_way_to(v, d, targets, bounds, toward, grid)
+            if on_way < 0:
                 continue
+            toward = on_way  # neighbouring cells likely lie on the way to it too
             seen[v] = stamp
             parent[v] = u
             queue[tail] = v
             tail += 1
-            if candidate[v] == 0:
-                continue
-            target = False
-            for i in range(n):
-                if targets[i] == v:
-                    target = True
-                    break
-            if not target:
+            if candidate[v] == 0 or not _among(v, targets):
                 continue
             found = target_rank(v, d, rank, grid, rivals, energy)
             if found >= 0:
                 return found, v
     return -1, -1
+
+
+@njit(cache=True, nogil=True)
+def _on_way_to(
+    v: int, d: int, targets: np.ndarray, bounds: np.ndarray, toward: int, grid: Grid
+) -> int:
+    """The first of the ``targets`` (from the one at ``toward`` on) that cell ``v``,
+    ``d`` moves from the start, may lie on a way to within its bound; -1 if none."""
+    stride, lands = grid[1], grid[2]
+    n = targets.size
+    for i in range(n):
+        j = toward + i
+        if j >= n:
+            j -= n
+        if way_within(v, targets[j], bounds[j] - d, stride, lands):
+            return j
+    return -1
+
+
+@njit(cache=True, nogil=True)
+def _among(v: int, targets: np.ndarray) -> bool:
+    """Is ``v`` one of the ``targets``?"""
+    for i in range(targets.size):  # noqa: SIM110 (numba: a loop, not a generator)
+        if targets[i] == v:
+            return True
+    return False

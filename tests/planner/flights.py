@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from core.cells import Cell
 from planner.agent import ActionKind
 from planner.coordinator import Coordinator
 from planner.settings import AgentSpec, PlannerSettings
+from planner.target_search import TargetSearch
 from sitl_mock.gridmap import GridMap
 from sitl_mock.lockstep import Body, LockstepWorld
 
@@ -21,6 +22,8 @@ class Flight:
     tracks: tuple[tuple[Cell, ...], ...]
     complete: bool
     finished: bool
+    #: The coordinator's target search, as the plan left it (its counts, when compiled).
+    search: TargetSearch = field(compare=False, repr=False)
 
     def digest(self) -> str:
         """Equal digests: the same plan, cell for cell."""
@@ -64,4 +67,5 @@ def fly(
         tracks=tuple(tuple(track) for track in tracks.values()),
         complete=coordinator.coverage_complete,
         finished=coordinator.finished,
+        search=coordinator._search,
     )

@@ -222,7 +222,7 @@ def test_a_confirmed_hint_is_what_the_search_returns(
     team.working[:] = rng.random(agents) < 0.8
     memo = HorizonMemo(team, 0)
     search = CompiledSearch(belief)
-    search.RIVALS = rivals
+    search.rivals_most = rivals
     search._rivals = np.zeros(rivals + 1, dtype=np.int64)
     cost = float(rng.choice([0.0, 0.2, 1.0, 2.0]))
     budget = 80.0

@@ -10,18 +10,22 @@ from typing import Any
 import pytest
 
 from planner.settings import PlannerSettings, SearchKind, SearchShortcuts
-from planner.speed import compiled_search
 from planner.speed.compiled_search import CompiledSearch, SearchCounts
 from sitl_mock import mapgen
-from tests.planner.flights import fly
+from tests.planner.flights import Flight, fly
+
+
+def _flown(grid, agents: int, **settings: Any) -> Flight:
+    """Every agent's track over ``grid``, planned with ``settings``."""
+    energy = 80.0 / (4 * (grid.shape[0] + grid.shape[1]))
+    flight = fly(grid, agents, PlannerSettings(**settings), energy_per_m_pct=energy)
+    assert flight.complete and flight.finished
+    return flight
 
 
 def _tracks_digest(grid, agents: int, **settings: Any) -> str:
     """A digest of every agent's track over ``grid``, planned with ``settings``."""
-    energy = 80.0 / (4 * (grid.shape[0] + grid.shape[1]))
-    flight = fly(grid, agents, PlannerSettings(**settings), energy_per_m_pct=energy)
-    assert flight.complete and flight.finished
-    return flight.digest()
+    return _flown(grid, agents, **settings).digest()
 
 
 @pytest.mark.parametrize("kind", ["open_field", "rooms", "building", "caves", "branching"])
@@ -33,22 +37,11 @@ def test_the_reference_search_plans_as_the_compiled_one(kind: str, agents: int) 
     assert _tracks_digest(grid, agents, search=SearchKind.REFERENCE) == compiled
 
 
-def _counted(monkeypatch, grid, agents: int, **settings: Any) -> tuple[str, SearchCounts]:
-    """The plan's digest, and how the compiled searches of the plan answered."""
-    made: list[CompiledSearch] = []
-
-    class Recorded(CompiledSearch):
-        def __init__(self, *args: Any) -> None:
-            super().__init__(*args)
-            made.append(self)
-
-    monkeypatch.setattr(compiled_search, "CompiledSearch", Recorded)
-    digest = _tracks_digest(grid, agents, **settings)
-    counts = SearchCounts()
-    for search in made:
-        for name in vars(counts):
-            setattr(counts, name, getattr(counts, name) + getattr(search.counts, name))
-    return digest, counts
+def _counted(grid, agents: int, **settings: Any) -> tuple[str, SearchCounts]:
+    """The plan's digest, and how the compiled search of the plan answered."""
+    flight = _flown(grid, agents, **settings)
+    assert isinstance(flight.search, CompiledSearch)
+    return flight.digest(), flight.search.counts
 
 
 def _without(**off: bool) -> dict[str, Any]:
@@ -68,21 +61,21 @@ def test_plans_are_the_same_without_the_shortlist(grid, agents: int) -> None:
     ("grid", "agents"),
     [OPEN60_12, ROOMS60_9, pytest.param(mapgen.open_field(80, 80, 3), 1, id="open80-1")],
 )
-def test_plans_are_the_same_without_confirmations(monkeypatch, grid, agents: int) -> None:
+def test_plans_are_the_same_without_confirmations(grid, agents: int) -> None:
     """Skipping the searches that would return the target on the way changes no
     move, and it does skip searches (alone: a settled target spares them too)."""
-    confirmed, taken = _counted(monkeypatch, grid, agents, **_without(settled=False))
-    plain, searched = _counted(monkeypatch, grid, agents, **_without(settled=False, confirm=False))
+    confirmed, taken = _counted(grid, agents, **_without(settled=False))
+    plain, searched = _counted(grid, agents, **_without(settled=False, confirm=False))
     assert plain == confirmed
     assert taken.confirmed > 0 and searched.confirmed == 0
     assert taken.searches < searched.searches
 
 
 @pytest.mark.parametrize(("grid", "agents"), [OPEN60_12, ROOMS60_9])
-def test_plans_are_the_same_without_the_way_memo(monkeypatch, grid, agents: int) -> None:
+def test_plans_are_the_same_without_the_way_memo(grid, agents: int) -> None:
     """The transit's check passing over the cells kept along its way changes no move,
     and it does pass over them."""
-    with_it, taken = _counted(monkeypatch, grid, agents)
+    with_it, taken = _counted(grid, agents)
     assert taken.way_listed > 0
     assert _tracks_digest(grid, agents, **_without(way_memo=False)) == with_it
 
@@ -95,9 +88,9 @@ def test_plans_are_the_same_without_the_way_memo(monkeypatch, grid, agents: int)
         pytest.param(mapgen.rooms(60, 60, 5), 3, id="rooms60-3"),
     ],
 )
-def test_plans_are_the_same_without_the_settled_target(monkeypatch, grid, agents: int) -> None:
+def test_plans_are_the_same_without_the_settled_target(grid, agents: int) -> None:
     """Carrying a target along its way without a check changes no move, and it
     does spare checks."""
-    with_it, taken = _counted(monkeypatch, grid, agents)
+    with_it, taken = _counted(grid, agents)
     assert taken.carried > 0
     assert _tracks_digest(grid, agents, **_without(settled=False)) == with_it
