@@ -12,7 +12,6 @@ from __future__ import annotations
 
 from gcs.generated_missions import GENERATORS, MAP_SEED, case_mission
 from gcs.offline.simulate import SimOptions, simulate
-from planner.speed.compiled_search import warm_up
 
 #: The run that calls every kernel: a maze of rooms this many cells a side, this many agents.
 WARM_UP_SIDE = 30
@@ -22,6 +21,5 @@ WARM_UP_AGENTS = 6
 def warm_up_planner(kind: str = "rooms", side: int = WARM_UP_SIDE) -> None:
     """Plan a small mission offline so that every compiled kernel is compiled (or loaded
     from numba's cache) in this process."""
-    warm_up()
     grid = GENERATORS[kind](side, side, MAP_SEED)
     simulate(case_mission(grid, WARM_UP_AGENTS, f"warm-up-{kind}"), SimOptions())

@@ -22,6 +22,7 @@ from gcs.planning import planner_settings, prior_map
 from planner.agent import ActionKind, AgentMode, EventKind, PlannerEvent
 from planner.coordinator import Coordinator
 from planner.settings import AgentSpec, PlannerSettings
+from planner.speed.compiled_search import warm_up
 from sitl_mock.lockstep import Body, LockstepWorld
 
 Progress = Callable[[int, int, int], None]
@@ -86,7 +87,10 @@ def simulate(
 
     ``events``, if given, receives every planner event with its iteration.
     ``log``, if given, records the run (mission time = iteration) and is closed at the end.
+    The search's kernels are compiled (or loaded from numba's cache) first, outside the
+    run's timings.
     """
+    warm_up()
     run = _LockstepRun(mission, options or SimOptions(), events, log)
     iteration = run.fly(progress)
     result = run.result(iteration)
