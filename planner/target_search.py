@@ -3,7 +3,7 @@ which implementation answers.
 
 A blocked agent takes the nearest candidate cell (breadth-first over the known
 free cells, moves tried N, S, E, W) that it can afford, ranked against the
-other working agents (see ``Coordinator._nearest_affordable``):
+other working agents (see ``Targets._nearest_affordable`` in ``planner.targets``):
 
 - rank 0, uncontested: no other agent is nearer to it (Manhattan) than the
   agent's way there;

@@ -119,7 +119,7 @@ class SearchScratch:
     def _way_to(self, start: int, cell: int, way: Sequence[int]) -> Sequence[int]:
         """The way the last search left from ``start`` to ``cell``, or ``way`` itself
         when it ends there and is as long: the coordinator keeps the way it is on
-        then (``Coordinator._take_target``), and a fresh list of a way of
+        then (``Targets.take``), and a fresh list of a way of
         thousands of moves cost more than the check that found it."""
         if way and way[-1] == cell and unwind(self.parent, start, cell, self._way) == len(way):
             return way
