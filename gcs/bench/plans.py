@@ -7,12 +7,10 @@ What it measures, as the operator reads it: ``gcs bench plans --help``
 from __future__ import annotations
 
 import argparse
+import contextlib
 import hashlib
 import math
-import multiprocessing
 import platform
-import signal
-import traceback
 from collections import defaultdict
 from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass
@@ -27,6 +25,7 @@ from gcs.bench.common import (
     positive_numbers,
     write_json,
 )
+from gcs.bench.sweeps import Failed, Where, run_sweep
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
 from gcs.generated_missions import MapMaker, case_mission
@@ -73,36 +72,32 @@ def run_case(case: PlanCase, overrides: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def _quiet_worker() -> None:
-    """Ctrl-C is the parent's to handle: it stops the pool and keeps what finished."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+def _run(job: tuple[PlanCase, dict[str, Any]]) -> dict[str, Any]:
+    case, overrides = job
+    return run_case(case, overrides)
 
 
-def _run(job: tuple[PlanCase, str, dict[str, Any]]) -> tuple[str, dict[str, Any]]:
-    """One run; a run that fails is a row with its error (its traceback on stderr), so
-    that one failure loses none of the other runs."""
-    case, label, overrides = job
-    try:
-        return label, run_case(case, overrides)
-    except Exception as exc:
-        traceback.print_exc()
-        return label, {**asdict(case), "error": f"{type(exc).__name__}: {exc}"}
+@dataclass(frozen=True)
+class Finished:
+    """A run as it finishes: its place in the sweep, its strategy and its row (a failed
+    run's row holds its case and ``error``)."""
+
+    index: int
+    label: str
+    row: dict[str, Any]
 
 
 def run_all(
-    cases: Sequence[PlanCase], strategies: dict[str, dict[str, Any]], jobs: int
-) -> Iterator[tuple[str, dict[str, Any]]]:
-    """Every case under every strategy, ``jobs`` at once, as they finish."""
+    cases: Sequence[PlanCase], strategies: dict[str, dict[str, Any]], where: Where
+) -> Iterator[Finished]:
+    """Every case under every strategy, as they finish (``gcs.bench.sweeps``)."""
     work = [(case, label, overrides) for case in cases for label, overrides in strategies.items()]
-    if jobs <= 1:
-        yield from map(_run, work)
-        return
-    pool = multiprocessing.get_context("fork").Pool(min(jobs, len(work)), _quiet_worker)
-    try:
-        yield from pool.imap_unordered(_run, work)
-    finally:
-        pool.terminate()
-        pool.join()
+    jobs = [(case, overrides) for case, _, overrides in work]
+    with contextlib.closing(run_sweep(_run, jobs, where)) as sweep:
+        for index, answer in sweep:
+            case, label, _ = work[index]
+            row = {**asdict(case), "error": answer.error} if isinstance(answer, Failed) else answer
+            yield Finished(index, label, row)
 
 
 def _progress_line(done: int, total: int, label: str, row: dict[str, Any]) -> str:
@@ -227,39 +222,53 @@ def summary_table(summary: list[dict[str, Any]]) -> Table:
     return table
 
 
-def run_plans(args: argparse.Namespace) -> int:
+def _cases(args: argparse.Namespace) -> list[PlanCase]:
     kinds = chosen(args.kinds, "kinds", list(GENERATORS))
     if args.jobs < 1:
         raise UsageError("--jobs must be at least 1")
     sizes = positive_numbers(args.sizes, "sizes")
     if min(sizes) < mapgen.MIN_SIZE:
         raise UsageError(f"--sizes: maps are at least {mapgen.MIN_SIZE} cells a side")
-    cases = [
+    return [
         PlanCase(kind, size, agents, seed)
         for kind in kinds
         for size in sizes
         for agents in positive_numbers(args.agents, "agents")
         for seed in positive_numbers(args.seeds, "seeds")
     ]
+
+
+def _sweep(
+    cases: list[PlanCase], strategies: dict[str, dict[str, Any]], where: Where
+) -> tuple[dict[str, list[dict[str, Any]]], bool]:
+    """Every run's row by strategy, in the order of the cases whatever order they
+    finished in, and whether Ctrl-C stopped the sweep (the finished runs are kept)."""
+    progress = Console(stderr=True)
+    finished: list[Finished] = []
+    total = len(cases) * len(strategies)
+    interrupted = False
+    try:
+        for run in run_all(cases, strategies, where):
+            finished.append(run)
+            line = _progress_line(len(finished), total, run.label, run.row)
+            progress.print(line, soft_wrap=True, highlight=False)
+    except KeyboardInterrupt:
+        interrupted = True
+        progress.print(f"interrupted: {len(finished)} runs finished are kept", highlight=False)
+    rows: dict[str, list[dict[str, Any]]] = {label: [] for label in strategies}
+    for run in sorted(finished, key=lambda run: run.index):
+        rows[run.label].append(run.row)
+    return rows, interrupted
+
+
+def run_plans(args: argparse.Namespace) -> int:
+    cases = _cases(args)
     base = parse_settings(args.base, "base")
     strategies = {"base": base}
     if args.changes:
         strategies["variant"] = base | parse_settings(args.changes, "set")
     console = output_console(quiet=False)
-    rows: dict[str, list[dict[str, Any]]] = {label: [] for label in strategies}
-    progress = Console(stderr=True)
-    interrupted = False
-    total = len(cases) * len(strategies)
-    done = 0
-    try:
-        for label, row in run_all(cases, strategies, args.jobs):
-            rows[label].append(row)
-            done += 1
-            progress.print(_progress_line(done, total, label, row), soft_wrap=True, highlight=False)
-    except KeyboardInterrupt:
-        interrupted = True
-        done = sum(map(len, rows.values()))
-        progress.print(f"interrupted: {done} runs finished are kept", highlight=False)
+    rows, interrupted = _sweep(cases, strategies, Where(args.jobs, args.scheduler))
     pairs = compare(rows["base"], rows["variant"]) if "variant" in rows else []
     console.print(runs_table(rows, pairs))
     figures: dict[str, Any] = {

@@ -313,7 +313,15 @@ def _plans(p: argparse.ArgumentParser) -> None:
         "--jobs",
         type=int,
         default=os.cpu_count() or 1,
-        help="runs at once, each in a process of its own (default: one per core)",
+        help="runs at once: worker processes of a local Dask cluster on this machine, "
+        "listening on loopback only; 1: one after another in this process "
+        "(default: one per core)",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on an existing Dask cluster instead, whose workers run this same project "
+        "(its scheduler's address, e.g. tcp://127.0.0.1:8786; --jobs is then ignored)",
     )
     p.add_argument(
         "--json", type=json_path, help="also write every run's figures to this JSON file"
