@@ -21,10 +21,11 @@ import contextlib
 import itertools
 import pickle
 import traceback
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from gcs.errors import UsageError
 from planner.native import use_sources_if_stale
 
 #: Seconds to wait for an existing cluster's scheduler to answer.
@@ -65,7 +66,7 @@ def _call(payload: bytes) -> Any:
 
 def run_sweep(
     function: Callable[[Any], Any], jobs: Sequence[Any], where: Where
-) -> Iterator[tuple[int, Any]]:
+) -> Generator[tuple[int, Any]]:
     """``(index of the job, its answer or a Failed)`` for every job, as they finish."""
     if where.scheduler is None and where.jobs <= 1:
         for index, job in enumerate(jobs):
@@ -114,8 +115,14 @@ def _on_cluster(
 @contextlib.contextmanager
 def _client(where: Where, runs: int) -> Iterator[Any]:
     """A client of the existing cluster, or of a local one made for this sweep."""
-    import dask
-    from distributed import Client, LocalCluster
+    try:
+        import dask
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise UsageError(
+            "runs on Dask distributed: install it with pip install -e '.[sweeps]' "
+            "(or run with --jobs 1)"
+        ) from None
 
     if where.scheduler is not None:
         with Client(where.scheduler, timeout=CONNECT_TIMEOUT_S) as client:

@@ -27,6 +27,8 @@ HEAVY = (
     "planner.coordinator",
     "pymavlink.mavutil",
     "gcs.live",
+    "dask",
+    "distributed",
 )
 
 
