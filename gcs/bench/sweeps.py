@@ -28,6 +28,7 @@ from typing import Any
 from gcs.errors import UsageError
 from planner.native import use_sources_if_stale
 
+LOOPBACK_ANY_PORT = "127.0.0.1:0"
 #: Seconds to wait for an existing cluster's scheduler to answer.
 CONNECT_TIMEOUT_S = 10
 
@@ -137,6 +138,9 @@ def _client(where: Where, runs: int) -> Iterator[Any]:
             processes=True,
             host="127.0.0.1",
             dashboard_address=None,
+            # The scheduler's HTTP routes (health, metrics) listen even without the
+            # dashboard: on a free loopback port rather than 8787.
+            scheduler_kwargs={"dashboard_address": LOOPBACK_ANY_PORT},
             memory_limit=0,
         ) as cluster,
         Client(cluster) as client,
