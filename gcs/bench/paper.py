@@ -10,14 +10,17 @@ that maps of slightly different size compare fairly.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import platform
 from dataclasses import dataclass
 from pathlib import Path
 
+from rich.console import Console
 from rich.table import Table
 
 from gcs.bench.common import write_json
+from gcs.bench.sweeps import Failed, Where, run_sweep
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.mission import Mission, MissionError, load_mission
@@ -87,15 +90,53 @@ def normalised(result: RunResult) -> dict[str, float]:
     }
 
 
+#: A run's answer: its result, or how it failed.
+Outcome = RunResult | Failed
+
+
+@dataclass(frozen=True)
+class PaperCase:
+    """One run of the tables: the mission (with its fleet) under a strategy."""
+
+    table: int
+    mission: Mission
+    strategy: Strategy
+
+
+def _run(case: PaperCase) -> RunResult:
+    return simulate(case.mission, SimOptions(settings=_settings(case.mission, case.strategy)))
+
+
+def _run_all(cases: list[PaperCase], where: Where) -> list[Outcome]:
+    """Every case's outcome, in the cases' order; a line on stderr as each finishes."""
+    progress = Console(stderr=True)
+    outcomes: dict[int, Outcome] = {}
+    with contextlib.closing(run_sweep(_run, cases, where)) as sweep:
+        for index, outcome in sweep:
+            outcomes[index] = outcome
+            case = cases[index]
+            line = f"[{len(outcomes)}/{len(cases)}] Table {case.table}, "
+            line += f"{len(case.mission.fleet)} agents, {case.strategy.name}: "
+            line += f"failed: {outcome.error}" if isinstance(outcome, Failed) else "done"
+            progress.print(line, soft_wrap=True, highlight=False)
+    return [outcomes[index] for index in range(len(cases))]
+
+
 def run_paper(args: argparse.Namespace) -> int:
+    if args.jobs < 1:
+        raise UsageError("--jobs must be at least 1")
     console = output_console()
     scenario = _load(args.missions / "scenario1.yaml")
-    bob = _load(args.missions / "bob30.yaml")
+    bob = _load(args.missions / "bob30.yaml").with_agents(4)
     figures: dict[str, object] = {"machine": platform.processor() or platform.machine()}
-    table1, rows1, ok1 = _table1(scenario, args.agents)
+    cases = [PaperCase(1, scenario.with_agents(n), s) for n in args.agents for s in STRATEGIES]
+    cases += [PaperCase(2, bob, s) for s in STRATEGIES]
+    outcomes = _run_all(cases, Where(args.jobs, args.scheduler))
+    first = len(args.agents) * len(STRATEGIES)
+    table1, rows1, ok1 = _table1(scenario, args.agents, outcomes[:first])
     console.print(table1)
     figures["table1"] = rows1
-    table2, rows2, ok2, bob_free = _table2(bob)
+    table2, rows2, ok2, bob_free = _table2(bob, outcomes[first:])
     console.print(table2)
     console.print(
         f"* the paper's map is not published; its ratios use our map's {bob_free} free cells."
@@ -127,9 +168,12 @@ TABLE1_COLUMNS = (
 )
 
 
-def _table1(scenario: Mission, agents: list[int]) -> tuple[Table, list[dict[str, object]], bool]:
-    """Table 1: scenario 1 with each number of agents and strategy, beside the paper's
-    figures; its rows for ``--json``, and whether every run completed."""
+def _table1(
+    scenario: Mission, agents: list[int], outcomes: list[Outcome]
+) -> tuple[Table, list[dict[str, object]], bool]:
+    """Table 1: scenario 1 with each number of agents and strategy (``outcomes`` in that
+    order), beside the paper's figures; its rows for ``--json``, and whether every run
+    completed."""
     energy = scenario.fleet[0].energy_per_m_pct if scenario.fleet else 0.0
     table = Table(
         title=(
@@ -140,12 +184,17 @@ def _table1(scenario: Mission, agents: list[int]) -> tuple[Table, list[dict[str,
     )
     for column in TABLE1_COLUMNS:
         table.add_column(column, justify="right")
-    rows = []
+    rows: list[dict[str, object]] = []
     ok = True
+    runs = iter(outcomes)
     for n in agents:
-        mission = scenario.with_agents(n)
         for strategy in STRATEGIES:
-            result = simulate(mission, SimOptions(settings=_settings(mission, strategy)))
+            result = next(runs)
+            if isinstance(result, Failed):
+                ok = False
+                table.add_row(str(n), strategy.name, f"[red]failed: {result.error}[/]")
+                rows.append({"agents": n, "strategy": strategy.name, "error": result.error})
+                continue
             ok &= result.complete
             rows.append(_table1_row(table, n, strategy, result))
     return table, rows, ok
@@ -206,9 +255,12 @@ TABLE2_COLUMNS = (
 )
 
 
-def _table2(bob: Mission) -> tuple[Table, list[dict[str, object]], bool, int]:
-    """Table 2: the 30x30 map with 4 agents and no battery limit, each strategy beside
-    the paper's methods; its rows, whether every run completed, and the free cells."""
+def _table2(
+    bob: Mission, outcomes: list[Outcome]
+) -> tuple[Table, list[dict[str, object]], bool, int]:
+    """Table 2: the 30x30 map with 4 agents and no battery limit, each strategy
+    (``outcomes`` in that order) beside the paper's methods; its rows, whether every run
+    completed, and the free cells."""
     table = Table(title=f"Table 2: {bob.name}, 4 agents, no battery limit")
     for column in TABLE2_COLUMNS:
         table.add_column(column, justify="right")
@@ -226,9 +278,12 @@ def _table2(bob: Mission) -> tuple[Table, list[dict[str, object]], bool, int]:
         )
     rows: list[dict[str, object]] = []
     ok = True
-    mission = bob.with_agents(4)
-    for strategy in STRATEGIES:
-        result = simulate(mission, SimOptions(settings=_settings(mission, strategy)))
+    for strategy, result in zip(STRATEGIES, outcomes, strict=True):
+        if isinstance(result, Failed):
+            ok = False
+            table.add_row(f"{strategy.name} (ours)", f"[red]failed: {result.error}[/]")
+            rows.append({"strategy": strategy.name, "error": result.error})
+            continue
         ok &= result.complete
         paths = [a.path_m for a in result.agents]
         table.add_row(

@@ -178,6 +178,7 @@ def _paper(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--agents", type=int, nargs="+", default=list(PAPER_AGENTS), help="Table 1 fleet sizes"
     )
+    _sweep_options(p)
     p.add_argument("--json", type=json_path, help="also write the figures as JSON to this file")
     runs(p, "gcs.bench.paper:run_paper")
 
@@ -289,6 +290,24 @@ def _perf(p: argparse.ArgumentParser) -> None:
     runs(p, "gcs.bench.perf:run_perf")
 
 
+def _sweep_options(p: argparse.ArgumentParser) -> None:
+    """Where a sweep's runs go (gcs.bench.sweeps)."""
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="runs at once: worker processes of a local Dask cluster on this machine, "
+        "listening on loopback only; 1: one after another in this process "
+        "(default: one per core)",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on an existing Dask cluster instead, whose workers run this same project "
+        "(its scheduler's address, e.g. tcp://127.0.0.1:8786; --jobs is then ignored)",
+    )
+
+
 def _plans(p: argparse.ArgumentParser) -> None:
     p.add_argument("--kinds", default="rooms,caves,open", help="map kinds (default: all three)")
     p.add_argument("--sizes", default="100", help="map sides in cells (default 100)")
@@ -309,20 +328,7 @@ def _plans(p: argparse.ArgumentParser) -> None:
         metavar="KEY=VALUE",
         help="a planner setting of the base (default: the planner's defaults)",
     )
-    p.add_argument(
-        "--jobs",
-        type=int,
-        default=os.cpu_count() or 1,
-        help="runs at once: worker processes of a local Dask cluster on this machine, "
-        "listening on loopback only; 1: one after another in this process "
-        "(default: one per core)",
-    )
-    p.add_argument(
-        "--scheduler",
-        metavar="ADDRESS",
-        help="run on an existing Dask cluster instead, whose workers run this same project "
-        "(its scheduler's address, e.g. tcp://127.0.0.1:8786; --jobs is then ignored)",
-    )
+    _sweep_options(p)
     p.add_argument(
         "--json", type=json_path, help="also write every run's figures to this JSON file"
     )

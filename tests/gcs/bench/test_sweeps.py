@@ -13,6 +13,7 @@ from typing import Any
 import pytest
 from distributed import LocalCluster
 
+from gcs.bench import paper as bench_paper
 from gcs.bench import plans as bench_plans
 from gcs.bench.sweeps import Failed, Where, run_sweep
 from gcs.cli import main
@@ -119,3 +120,50 @@ def _exit_on_zero_else_echo(job: int) -> int:
     if job == 0:
         os._exit(3)
     return job
+
+
+PAPER = ["bench", "paper", "--agents", "1", "3"]
+
+
+def _paper_figures(path: Path) -> dict[str, Any]:
+    """The tables' rows without their timings."""
+    figures = json.loads(path.read_text())
+    timings = ("planner_s", "us_per_agent_step")
+    return {
+        "table1": [{k: v for k, v in r.items() if k not in timings} for r in figures["table1"]],
+        "table2": figures["table2"],
+    }
+
+
+def test_the_paper_tables_on_a_cluster_are_the_same(tmp_path: Path, scheduler: str) -> None:
+    here, there = tmp_path / "here.json", tmp_path / "there.json"
+    assert main([*PAPER, "--jobs", "1", "--json", str(here)]) == 0
+    assert main([*PAPER, "--scheduler", scheduler, "--json", str(there)]) == 0
+    assert _paper_figures(there) == _paper_figures(here)
+    assert [r["agents"] for r in _paper_figures(there)["table1"]] == [1, 1, 3, 3]
+
+
+def test_a_paper_run_that_fails_is_a_failed_row(
+    tmp_path: Path, scheduler: str, monkeypatch, capsys
+) -> None:
+    real = bench_paper.simulate
+
+    def failing_alone(mission, options):
+        if len(mission.fleet) == 1:
+            raise RuntimeError("planner bug")
+        return real(mission, options)
+
+    monkeypatch.setattr(bench_paper, "simulate", failing_alone)
+    out = tmp_path / "paper.json"
+    assert main([*PAPER, "--scheduler", scheduler, "--json", str(out)]) == 1
+    figures = json.loads(out.read_text())
+    assert [r.get("error") for r in figures["table1"]] == [
+        "RuntimeError: planner bug",
+        "RuntimeError: planner bug",
+        None,
+        None,
+    ]
+    assert all(r["complete"] for r in figures["table2"])
+    captured = capsys.readouterr()
+    assert captured.err.count("failed: RuntimeError: planner bug") == 2
+    assert "failed" in captured.out  # in Table 1
