@@ -176,7 +176,7 @@ def first_among(
     energy: EnergyTerms,
     scratch: Scratch,
 ) -> tuple[int, int]:
-    """``_search`` when only the ``targets`` (candidates in range, and reached
+    """``ranked_search`` when only the ``targets`` (candidates in range, and reached
     from home) can be what it returns, all within ``bound`` moves: the first
     of them it reaches that the agent can afford and that ranks ``rank`` or
     better, as (rank, cell), or (-1, -1); ``parent`` holds the path there.
@@ -193,9 +193,7 @@ def first_among(
     bound to the start alone, where the search forward tests it to each
     target in turn (up to ``SearchScratch.RIVALS``), and on open ground,
     where either covers the rectangle between the ends, it is as quick
-    (rooms 1000x1000 with 50 agents, where the ways do not lead away from a
-    landmark: 5.1 s for 16392 such searches back against 8.2 s forward,
-    the same answers but 125 it could not tell). ``stamp`` to ``stamp + 2``
+    (docs/performance.md has the comparison). ``stamp`` to ``stamp + 2``
     mark ``seen``.
     """
     start, bound, rank, stamp = walk
