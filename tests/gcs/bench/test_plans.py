@@ -9,7 +9,6 @@ from pathlib import Path
 
 import pytest
 
-from gcs.bench import plans as bench_plans
 from gcs.bench.plans import summarise
 from gcs.cli import main
 from tests.processes import ctrl_c, gcs_process
@@ -112,15 +111,8 @@ def _descendants(pid: int) -> list[int]:
     return found
 
 
-def test_a_failed_run_is_reported_and_the_others_kept(tmp_path: Path, monkeypatch, capsys) -> None:
-    real = bench_plans.simulate
-
-    def failing_on_seed_2(mission, options):
-        if mission.name.endswith("-2"):
-            raise RuntimeError("planner bug")
-        return real(mission, options)
-
-    monkeypatch.setattr(bench_plans, "simulate", failing_on_seed_2)
+@pytest.mark.usefixtures("planner_failing_on_seed_2")
+def test_a_failed_run_is_reported_and_the_others_kept(tmp_path: Path, capsys) -> None:
     out = tmp_path / "plans.json"
     args = ["bench", "plans", "--kinds", "open", *TINY, "--jobs", "1", "--set", "hold_radius=0"]
     assert main([*args, "--json", str(out)]) == 1

@@ -14,7 +14,6 @@ import pytest
 from distributed import LocalCluster
 
 from gcs.bench import paper as bench_paper
-from gcs.bench import plans as bench_plans
 from gcs.bench.sweeps import Failed, Where, run_sweep
 from gcs.cli import main
 
@@ -75,18 +74,11 @@ def test_a_local_cluster_gives_the_same_runs(tmp_path: Path) -> None:
     assert _figures(there) == _figures(here)
 
 
+@pytest.mark.usefixtures("planner_failing_on_seed_2")
 def test_a_run_failing_in_a_worker_is_reported_and_the_others_kept(
-    tmp_path: Path, scheduler: str, monkeypatch, capsys
+    tmp_path: Path, scheduler: str, capsys
 ) -> None:
     """The workers are threads of this process, so the patched planner run is theirs."""
-    real = bench_plans.simulate
-
-    def failing_on_seed_2(mission, options):
-        if mission.name.endswith("-2"):
-            raise RuntimeError("planner bug")
-        return real(mission, options)
-
-    monkeypatch.setattr(bench_plans, "simulate", failing_on_seed_2)
     out = tmp_path / "plans.json"
     assert main(["bench", "plans", *TINY, "--scheduler", scheduler, "--json", str(out)]) == 1
     rows = _figures(out)["base"]
