@@ -46,9 +46,11 @@ CLIMBING_M = 0.1
 MIN_UPLOAD_REAL_S = 2.0
 #: A car drives straight to a target at most this far off its nose (degrees); one
 #: further off it lines up for first (``Pilot._line_up``), backing up at most this
-#: many cells.
+#: many cells: from one cell back, the line to a neighbour beside it stays in the car's
+#: cell, the one behind and the target's, never across the diagonal cell, which may be
+#: a wall (a car in a pocket of posts drove into one from 1.5 cells back).
 CAR_AHEAD_DEG = 35.0
-CAR_BACK_UP_CELLS = 1.5
+CAR_BACK_UP_CELLS = 1.0
 
 
 @dataclass(frozen=True)
