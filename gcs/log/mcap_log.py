@@ -48,14 +48,14 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import IO, Any, Protocol
+from typing import Any, Protocol
 
 import numpy as np
-from mcap.writer import CompressionType, Writer
 
 from core.cells import Cell, CellState, Direction
 from core.geo import GeoFrame
-from gcs.log.mission_log import GeoFix, MissionProgress, VehicleStatus
+from gcs.log.mcap_file import Channel, McapFile
+from gcs.log.mission_log import FleetStep, GeoFix, MissionProgress, VehicleStatus
 from gcs.log.result_json import result_to_json
 from gcs.log.scenes import (
     IDENTITY,
@@ -69,6 +69,8 @@ from gcs.log.topics import (
     BATTERY_SCHEMA,
     BTPS_TOPIC,
     EVENTS_TOPIC,
+    FLEET_STATES_SCHEMA,
+    FLEET_STATES_TOPIC,
     LOG_LEVELS,
     MAP_FRAME,
     MAP_TOPIC,
@@ -96,6 +98,14 @@ def _unix_ns(unix_s: float | None) -> int:
     return time.time_ns() if unix_s is None else round(unix_s * 1e9)
 
 
+def _straight_on(a: tuple[float, float], b: tuple[float, float], c: tuple[float, float]) -> bool:
+    """Whether ``c`` lies on the line from ``a`` through ``b``, beyond ``b``."""
+    ab = (b[0] - a[0], b[1] - a[1])
+    bc = (c[0] - b[0], c[1] - b[1])
+    cross = ab[0] * bc[1] - ab[1] * bc[0]
+    return abs(cross) < 1e-9 and ab[0] * bc[0] + ab[1] * bc[1] > 0
+
+
 class LogSink(Protocol):
     """Something that takes the log's messages as they are written (a live view): every
     message but the raw MAVLink frames, as the JSON bytes the file gets. Called on the
@@ -110,9 +120,14 @@ class _Vehicle:
 
     sysid: int
     colour: tuple[float, float, float]
-    #: Track points as JSON ``foxglove.Point3`` text, ready to splice into a scene update.
+    #: Track points as JSON ``foxglove.Point3`` text, ready to splice into a scene update;
+    #: a point on the line through the two before it replaces the last one.
     track: list[str] = field(default_factory=list)
+    #: The last two track points (east, north): where a straight run goes on.
+    tail: tuple[tuple[float, float], ...] = ()
     last_cell: Cell | None = None
+    #: The last move between cells (rows, columns) of an offline run.
+    last_move: tuple[int, int] | None = None
     last_fix: tuple[Any, ...] | None = None
     heading_deg: float = 0.0
 
@@ -152,7 +167,10 @@ class LogSettings:
     that seeking in Foxglove shows them) and must not make the file grow with the
     square of the mission's length."""
 
-    chunk_size: int = 64 * 1024
+    chunk_size: int = 1024 * 1024
+    #: An offline run's steps gathered in one ``/fleet/states`` message; each vehicle's
+    #: pose and fix are written at the last of them.
+    steps_per_message: int = 25
     flush_s: float = 1.0
     scene_period_s: float = 5.0
     scene_fraction: float = 0.05
@@ -183,30 +201,26 @@ class McapMissionLog:
         kept in ``failure``; every later call returns quietly, and the live view goes
         on. The file then has no summary, and ``gcs report`` reads it as cut."""
         self.path = None if path is None else Path(path)
-        self._file: IO[bytes] | None = None
-        self._writer: Writer | None = None
+        self._file: McapFile | None = None
         if self.path is not None:
-            self._file = open(self.path, "wb")  # noqa: SIM115 - closed in close()
-            self._writer = Writer(
-                self._file, chunk_size=settings.chunk_size, compression=CompressionType.ZSTD
-            )
-            self._writer.start(profile=PROFILE, library="staying-alive-gcs")
+            self._file = McapFile(self.path, profile=PROFILE, chunk_size=settings.chunk_size)
         self._sinks = tuple(sinks)
         self._mission = mission
         self._settings = settings
         #: What was last written of each vehicle's status and of the progress.
         self._statuses: dict[int, VehicleStatus] = {}
         self._progress: MissionProgress | None = None
-        self._schemas: dict[str, int] = {}
-        self._channels: dict[str, int] = {}
+        self._channels: dict[str, Channel] = {}
         self._vehicles: dict[int, _Vehicle] = {}
+        self._steps: list[tuple[float, FleetStep]] = []
+        #: Whether the vehicles' steps went to /fleet/states (an offline run).
+        self._fleet_logged = False
         self._last_flush = time.monotonic()
         self._next_tracks_t = 0.0
         self._tracks_dirty = False
         self._btps: list[Cell] | None = None
         self._next_btps_t = 0.0
         self._last_t = 0.0
-        self._sequence = 0
         self._closed = False
         #: Why and when (mission seconds) the file stopped being written, if it did.
         self.failure: str | None = None
@@ -255,22 +269,17 @@ class McapMissionLog:
 
     # -------------------------------------------------------------- plumbing
 
-    def _channel(
-        self, writer: Writer, topic: str, schema: str | None, encoding: str = "json"
-    ) -> int:
+    def _channel(self, file: McapFile, topic: str, schema: str | None) -> Channel:
         channel = self._channels.get(topic)
-        if channel is not None:
-            return channel
-        schema_id = 0
-        if schema is not None:
-            schema_id = self._schemas.get(schema, 0)
-            if not schema_id:
-                data = json.dumps(SCHEMAS[schema]).encode()
-                schema_id = writer.register_schema(schema, "jsonschema", data)
-                self._schemas[schema] = schema_id
-        metadata = {"format": "one MAVLink v1/v2 frame per message"} if schema is None else {}
-        channel = writer.register_channel(topic, encoding, schema_id, metadata)
-        self._channels[topic] = channel
+        if channel is None:
+            if schema is None:
+                metadata = {"format": "one MAVLink v1/v2 frame per message"}
+                channel = file.channel(topic, encoding=RAW_ENCODING, metadata=metadata)
+            else:
+                channel = file.channel(
+                    topic, encoding="json", schema_name=schema, schema=SCHEMAS[schema]
+                )
+            self._channels[topic] = channel
         return channel
 
     def _write(self, topic: str, schema: str | None, t_s: float, data: bytes) -> None:
@@ -280,14 +289,11 @@ class McapMissionLog:
         if schema is not None:
             for sink in self._sinks:
                 sink.publish(topic, schema, t_s, data)
-        writer = self._writer
-        if writer is None:
+        file = self._file
+        if file is None:
             return
         try:
-            channel = self._channel(writer, topic, schema, "json" if schema else RAW_ENCODING)
-            ns = self._ns(t_s)
-            self._sequence += 1
-            writer.add_message(channel, ns, data, ns, self._sequence)
+            self._channel(file, topic, schema).log(data, log_time=self._ns(t_s))
         except Exception as exc:  # whatever breaks the file must not reach the caller
             self._fail(exc)
             return
@@ -301,10 +307,10 @@ class McapMissionLog:
             return
         reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
         self.failure = f"the log stopped at mission time {self._last_t:.1f} s: {reason}"
-        self._writer = None
-        if self._file is not None:
+        file, self._file = self._file, None
+        if file is not None:
             with contextlib.suppress(Exception):
-                self._file.close()
+                file.close()
         if self.on_failure is not None:
             self.on_failure(self.failure)
 
@@ -313,14 +319,14 @@ class McapMissionLog:
 
     def flush(self) -> None:
         """Close the current chunk and hand it to the OS: a crash after this loses nothing."""
-        if self._closed or self._writer is None:
+        if self._closed or self._file is None:
             return
         try:
-            self._writer.flush()
-            if self._file is not None:
-                self._file.flush()
+            self._file.flush()
         except Exception as exc:
             self._fail(exc)
+        if self._file is not None and self._file.failure is not None:
+            self._fail(self._file.failure)
         self._last_flush = time.monotonic()
 
     def _write_meta(self) -> None:
@@ -400,10 +406,51 @@ class McapMissionLog:
             vehicle.last_fix = shown
             self._position(t_s, vehicle, (row, col), lat_deg, lon_deg)
         vehicle.last_cell = (row, col)
+        self._scenes_due(t_s)
+
+    def _scenes_due(self, t_s: float) -> None:
         if t_s >= self._next_tracks_t:
             self._emit_tracks(t_s)
         if self._btps is not None and t_s >= self._next_btps_t:
             self._emit_btps(t_s)
+
+    def fleet_step(self, t_s: float, step: FleetStep) -> None:
+        if self._closed:
+            return
+        self._fleet_logged = True
+        self._steps.append((t_s, step))
+        if len(self._steps) >= self._settings.steps_per_message:
+            self._write_steps()
+
+    def _write_steps(self) -> None:
+        """The gathered steps as one ``/fleet/states`` message (columns, encoded by the
+        JSON library at C speed); each vehicle's track through them, and its pose and
+        fix at the last one."""
+        steps, self._steps = self._steps, []
+        if not steps:
+            return
+        t_s, last = steps[-1]
+        grid = np.array([step.cells for _, step in steps], dtype=np.int64)
+        states = {
+            "sysids": [int(sysid) for sysid in last.sysids],
+            "t_s": [t for t, _ in steps],
+            "row": grid[:, :, 0].tolist(),
+            "col": grid[:, :, 1].tolist(),
+            "battery_pct": [list(step.battery_pct) for _, step in steps],
+            "mode": [list(step.modes) for _, step in steps],
+        }
+        self._json(FLEET_STATES_TOPIC, FLEET_STATES_SCHEMA, t_s, states)
+        # Each vehicle's cells through the steps: the steps' rows, transposed.
+        tracks = zip(*(step.cells for _, step in steps), strict=True)
+        for sysid, cells in zip(last.sysids, tracks, strict=True):
+            vehicle = self._vehicle(sysid)
+            self._track_through(vehicle, cells)
+            here = vehicle.last_cell
+            shown = (*here, None, None, vehicle.heading_deg) if here is not None else None
+            if here is not None and shown != vehicle.last_fix:
+                vehicle.last_fix = shown
+                self._position(t_s, vehicle, here, None, None)
+        self._scenes_due(t_s)
 
     def _position(
         self,
@@ -435,10 +482,43 @@ class McapMissionLog:
             f'{{"x":0.0,"y":0.0,"z":{math.sin(yaw)!r},"w":{math.cos(yaw)!r}}}}}}}'
         )
         self._write(f"/vehicle/{vehicle.sysid}/pose", "foxglove.PoseInFrame", t_s, pose.encode())
-        point = f'{{"x":{round(east, 3)!r},"y":{round(north, 3)!r},"z":0.0}}'
-        if not vehicle.track or vehicle.track[-1] != point:
-            vehicle.track.append(point)
-            self._tracks_dirty = True
+        self._track_point(vehicle, north, east)
+
+    def _track_through(self, vehicle: _Vehicle, cells: Sequence[Cell]) -> None:
+        """A vehicle's track on through ``cells`` (its cell at successive steps): a point
+        where it turns and where it ends, none along a straight run."""
+        centre = self._mission.geo.cell_centre_local
+        last, move = vehicle.last_cell, vehicle.last_move
+        for cell in cells:
+            if cell == last:
+                continue
+            if last is None:
+                self._track_point(vehicle, *centre(cell))
+            else:
+                step = (cell[0] - last[0], cell[1] - last[1])
+                if step != move:
+                    self._track_point(vehicle, *centre(last))
+                    move = step
+            last = cell
+        if last is not None:
+            self._track_point(vehicle, *centre(last))
+            if move is not None and move != vehicle.last_move:
+                vehicle.heading_deg = move_heading((0, 0), move) or vehicle.heading_deg
+        vehicle.last_cell, vehicle.last_move = last, move
+
+    def _track_point(self, vehicle: _Vehicle, north: float, east: float) -> None:
+        here = (round(east, 3), round(north, 3))
+        tail = vehicle.tail
+        if tail and tail[-1] == here:
+            return
+        point = f'{{"x":{here[0]!r},"y":{here[1]!r},"z":0.0}}'
+        self._tracks_dirty = True
+        if len(tail) == 2 and _straight_on(tail[0], tail[1], here):
+            vehicle.track[-1] = point
+            vehicle.tail = (tail[0], here)
+            return
+        vehicle.track.append(point)
+        vehicle.tail = (*tail[-1:], here)
 
     def _emit_tracks(self, t_s: float) -> None:
         """Every vehicle's whole track, so that a seek in Foxglove shows it too."""
@@ -467,7 +547,7 @@ class McapMissionLog:
 
     def coverage(self, t_s: float, belief: np.ndarray, covered: np.ndarray) -> None:
         grid = grid_message(self._ns(t_s), belief, covered, self._mission.cell_size_m)
-        self._json(MAP_TOPIC, "foxglove.Grid", t_s, grid)
+        self._write(MAP_TOPIC, "foxglove.Grid", t_s, grid)
 
     def btps(self, t_s: float, cells: Sequence[Cell]) -> None:
         self._btps = [(int(r), int(c)) for r, c in cells]
@@ -490,7 +570,9 @@ class McapMissionLog:
 
     def result(self, t_s: float, result: RunResult) -> None:
         self._emit_pending(t_s)
-        self._json(RESULT_TOPIC, RESULT_SCHEMA, t_s, result_to_json(result))
+        # An offline run's steps are in /fleet/states already: not written twice.
+        message = result_to_json(result, traces=not self._fleet_logged)
+        self._json(RESULT_TOPIC, RESULT_SCHEMA, t_s, message)
         self.flush()
 
     def status(
@@ -516,6 +598,7 @@ class McapMissionLog:
             self._json(PROGRESS_TOPIC, PROGRESS_SCHEMA, t_s, message)
 
     def _emit_pending(self, t_s: float) -> None:
+        self._write_steps()
         if self._tracks_dirty:
             self._emit_tracks(t_s)
         if self._btps is not None:
@@ -526,16 +609,14 @@ class McapMissionLog:
             return
         try:
             self._emit_pending(self._last_t)
-            if self._writer is not None and self._file is not None:
-                self._writer.finish()
-                self._file.flush()
+            if self._file is not None:
+                self._file.close()
+                if self._file.failure is not None:
+                    self._fail(self._file.failure)
         except Exception as exc:
             self._fail(exc)
         finally:
             self._closed = True
-            if self._file is not None:
-                with contextlib.suppress(Exception):
-                    self._file.close()
 
     def __enter__(self) -> McapMissionLog:
         return self

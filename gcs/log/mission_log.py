@@ -29,6 +29,15 @@ class GeoFix(NamedTuple):
     heading_deg: float | None = None
 
 
+class FleetStep(NamedTuple):
+    """Every vehicle at one step of an offline run, in the order of ``sysids``."""
+
+    sysids: Sequence[int]
+    cells: Sequence[Cell]
+    battery_pct: Sequence[float]
+    modes: Sequence[str]
+
+
 @dataclass(frozen=True)
 class VehicleStatus:
     """One vehicle as the operator sees it (the live display's row, and the web page's)."""
@@ -105,6 +114,11 @@ class MissionLog(Protocol):
         """Where a vehicle is and how it is doing (after every move, and on changes), and
         what it sensed there."""
 
+    def fleet_step(self, t_s: float, step: FleetStep) -> None:
+        """Where every vehicle is and how it is doing at one step of an offline run (tens
+        of thousands of steps a second): the log may gather steps and write them
+        together."""
+
     def coverage(self, t_s: float, belief: np.ndarray, covered: np.ndarray) -> None:
         """The planner's map: ``CellState`` values, and which cells are covered."""
 
@@ -146,6 +160,9 @@ class NullLog:
         fix: GeoFix | None = None,
         readings: Mapping[Direction, CellState] | None = None,
     ) -> None:
+        pass
+
+    def fleet_step(self, t_s: float, step: FleetStep) -> None:
         pass
 
     def coverage(self, t_s: float, belief: np.ndarray, covered: np.ndarray) -> None:

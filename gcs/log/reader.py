@@ -23,10 +23,11 @@ from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import MCAP0_MAGIC
 
 from core.cells import Cell, CellState, Direction
-from gcs.log.result_json import result_from_json
+from gcs.log.result_json import AgentSteps, result_from_json
 from gcs.log.topics import (
     BTPS_TOPIC,
     EVENTS_TOPIC,
+    FLEET_STATES_TOPIC,
     GRID_COVERED,
     GRID_FREE,
     MAP_TOPIC,
@@ -157,6 +158,8 @@ def _take(contents: LogContents, channel: Channel, message: Message) -> None:
             readings_from_code(data["sensed"]) if "sensed" in data else None,
         )
         contents.states.setdefault(int(data["sysid"]), []).append(state)
+    elif topic == FLEET_STATES_TOPIC:
+        _take_fleet_states(contents, data)
     elif topic == MAP_TOPIC:
         contents.last_map = data
     elif topic == BTPS_TOPIC:
@@ -168,6 +171,21 @@ def _take(contents: LogContents, channel: Channel, message: Message) -> None:
         contents.meta = data
     elif topic == RESULT_TOPIC:
         contents.result = data
+
+
+def _take_fleet_states(contents: LogContents, data: dict[str, Any]) -> None:
+    """An offline run's gathered steps: a state per vehicle per step (all of the
+    message's or, if any of it is damaged, none)."""
+    sysids = [int(sysid) for sysid in data["sysids"]]
+    taken: dict[int, list[VehicleState]] = {sysid: [] for sysid in sysids}
+    steps = zip(
+        data["t_s"], data["row"], data["col"], data["battery_pct"], data["mode"], strict=True
+    )
+    for t_s, rows, cols, batteries, modes in steps:
+        for sysid, row, col, pct, mode in zip(sysids, rows, cols, batteries, modes, strict=True):
+            taken[sysid].append(VehicleState(float(t_s), (int(row), int(col)), float(pct), mode))
+    for sysid, states in taken.items():
+        contents.states.setdefault(sysid, []).extend(states)
 
 
 def mission_s(contents: LogContents, log_time_ns: int) -> float:
@@ -195,12 +213,22 @@ def result_of(contents: LogContents, path: Path | str) -> RunResult:
     """The run that ``contents`` (read from ``path``) records (see ``read_log``)."""
     if contents.result is not None:
         try:
-            return result_from_json(contents.result)
+            return result_from_json(contents.result, _steps_of(contents))
         except (KeyError, TypeError, ValueError) as exc:
             raise LogError(f"{path}: /run/result is malformed ({exc})") from exc
     if contents.meta is None:
         raise LogError(f"{path}: no /run/meta record: the log holds no run")
     return reconstruct(contents)
+
+
+def _steps_of(contents: LogContents) -> dict[int, AgentSteps]:
+    """Each vehicle's cell and battery at every logged state."""
+    return {
+        sysid: AgentSteps(
+            tuple(state.cell for state in states), tuple(state.battery_pct for state in states)
+        )
+        for sysid, states in contents.states.items()
+    }
 
 
 def reconstruct(contents: LogContents) -> RunResult:

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Mapping, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -19,12 +19,23 @@ def _array_from(value: dict[str, Any]) -> np.ndarray:
     return np.array(value["data"], dtype=value["dtype"])
 
 
+class AgentSteps(NamedTuple):
+    """An agent's cell and battery at every step of the run."""
+
+    track: tuple[Cell, ...]
+    battery_pct: tuple[float, ...]
+
+
 def _cell(value: Sequence[int]) -> Cell:
     return (int(value[0]), int(value[1]))
 
 
-def result_to_json(result: RunResult) -> dict[str, Any]:
-    """Every field of a RunResult, JSON-ready; :func:`result_from_json` inverts it exactly."""
+def result_to_json(result: RunResult, *, traces: bool = True) -> dict[str, Any]:
+    """Every field of a RunResult, JSON-ready (tuples stand for arrays: the encoder takes
+    them as they are, where copying each cell of every track into a list cost more than
+    encoding it); :func:`result_from_json` inverts it exactly. ``traces`` False leaves
+    out each agent's track and battery at every step, for a log that holds them already
+    (an offline run's ``/fleet/states``): the reader puts them back from there."""
     return {
         "mission": result.mission,
         "shape": list(result.shape),
@@ -36,8 +47,7 @@ def result_to_json(result: RunResult) -> dict[str, Any]:
         "agents": [
             {
                 "id": a.id,
-                "track": [list(c) for c in a.track],
-                "battery_pct": list(a.battery_pct),
+                **({"track": a.track, "battery_pct": a.battery_pct} if traces else {}),
                 "path_m": a.path_m,
                 "homing_m": a.homing_m,
                 "charges": a.charges,
@@ -50,7 +60,7 @@ def result_to_json(result: RunResult) -> dict[str, Any]:
             [list(b.cell), b.detected_by, b.detected_at, b.covered_by, b.covered_at]
             for b in result.btps
         ],
-        "covered_per_iteration": list(result.covered_per_iteration),
+        "covered_per_iteration": result.covered_per_iteration,
         "iterations": result.iterations,
         "free_cells": result.free_cells,
         "covered_cells": result.covered_cells,
@@ -62,12 +72,21 @@ def result_to_json(result: RunResult) -> dict[str, Any]:
     }
 
 
-def result_from_json(data: dict[str, Any]) -> RunResult:
+def result_from_json(
+    data: dict[str, Any], traces: Mapping[int, AgentSteps] | None = None
+) -> RunResult:
+    """The result ``data`` holds; an agent's track and battery, when ``data`` leaves them
+    out, from ``traces`` (by agent id)."""
+    traces = traces or {}
     agents = tuple(
         AgentTrace(
             id=int(a["id"]),
-            track=tuple(_cell(c) for c in a["track"]),
-            battery_pct=tuple(float(b) for b in a["battery_pct"]),
+            track=tuple(_cell(c) for c in a["track"]) if "track" in a else traces[a["id"]].track,
+            battery_pct=(
+                tuple(float(b) for b in a["battery_pct"])
+                if "battery_pct" in a
+                else traces[a["id"]].battery_pct
+            ),
             path_m=float(a["path_m"]),
             homing_m=float(a["homing_m"]),
             charges=int(a["charges"]),

@@ -87,17 +87,23 @@ def btps_entity(
     return _entity(ns, "btps", spheres=spheres, metadata=[{"key": "cells", "value": cells_json}])
 
 
-def grid_message(
-    ns: int, belief: np.ndarray, covered: np.ndarray, cell_size_m: float
-) -> dict[str, Any]:
-    """The map as a ``foxglove.Grid``: each cell's code and its colour."""
+#: Each code's five bytes in the grid: the code, then its colour.
+_CODE_AND_RGBA = np.concatenate(
+    [np.arange(len(GRID_RGBA), dtype=np.uint8)[:, None], GRID_RGBA], axis=1
+)
+
+
+def grid_message(ns: int, belief: np.ndarray, covered: np.ndarray, cell_size_m: float) -> bytes:
+    """The map as a ``foxglove.Grid`` in JSON: each cell's code and its colour. The
+    data (megabytes on a large map) is spliced into the text, not run through the JSON
+    encoder, which would scan it for characters to escape."""
     codes = grid_codes(belief, covered)
     rows, cols = codes.shape
-    cells = np.concatenate([codes[:, :, None], GRID_RGBA[codes]], axis=2)
-    data = np.flipud(cells).tobytes()  # Foxglove's first row is the southern one
+    cells = _CODE_AND_RGBA[np.flipud(codes)]  # Foxglove's first row is the southern one
+    data = cells.tobytes()
     stride = cells.shape[2]
     names = ("state", "red", "green", "blue", "alpha")
-    return {
+    message = {
         "timestamp": stamp(ns),
         "frame_id": MAP_FRAME,
         "pose": {
@@ -109,5 +115,7 @@ def grid_message(
         "row_stride": cols * stride,
         "cell_stride": stride,
         "fields": [{"name": n, "offset": k, "type": 1} for k, n in enumerate(names)],
-        "data": base64.b64encode(data).decode("ascii"),
+        "data": "",
     }
+    head, tail = json.dumps(message, separators=(",", ":")).encode().split(b'"data":""')
+    return b"".join((head, b'"data":"', base64.b64encode(data), b'"', tail))

@@ -26,12 +26,15 @@ TRACKS_TOPIC = "/scene/tracks"
 BTPS_TOPIC = "/scene/btps"
 TF_TOPIC = "/tf"
 PROGRESS_TOPIC = "/run/progress"
+#: An offline run's vehicle states, gathered: many steps of the whole fleet a message.
+FLEET_STATES_TOPIC = "/fleet/states"
 
 META_SCHEMA = "staying_alive.RunMeta"
 RESULT_SCHEMA = "staying_alive.RunResult"
 BATTERY_SCHEMA = "staying_alive.VehicleState"
 STATUS_SCHEMA = "staying_alive.VehicleStatus"
 PROGRESS_SCHEMA = "staying_alive.MissionProgress"
+FLEET_STATES_SCHEMA = "staying_alive.FleetStates"
 
 
 def status_topic(sysid: int) -> str:
@@ -202,6 +205,17 @@ SCHEMAS: dict[str, dict[str, Any]] = {
         col=_int(),
         cell=_arr(_int()),
         sensed=_str(),
+    ),
+    # Columns: t_s[i] is step i; row[i][k], col[i][k], battery_pct[i][k], mode[i][k] are
+    # those of vehicle sysids[k] at step i.
+    FLEET_STATES_SCHEMA: _obj(
+        FLEET_STATES_SCHEMA,
+        sysids=_arr(_int()),
+        t_s=_arr(_num()),
+        row=_arr(_arr(_int())),
+        col=_arr(_arr(_int())),
+        battery_pct=_arr(_arr(_num())),
+        mode=_arr(_arr(_str())),
     ),
     META_SCHEMA: _obj(
         META_SCHEMA,

@@ -15,7 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from core.cells import Cell
-from gcs.log.mission_log import MissionLog
+from gcs.log.mission_log import FleetStep, MissionLog
 from gcs.mission import Mission
 from gcs.outcome.result import AgentTrace, BtpLog, RunResult
 from gcs.planning import planner_settings, prior_map
@@ -41,8 +41,12 @@ LOGGED_EVENTS = frozenset(
 )
 #: Events after which the BTP stacks may have changed.
 BTP_EVENTS = frozenset({EventKind.BTP_DETECTED, EventKind.BTP_COVERED, EventKind.TARGET})
-#: Iterations between two map snapshots in the log.
+#: Iterations between two map (and BTP) snapshots in the log: at least ``LOG_MAP_EVERY``, and
+#: later in a long run ``LOG_MAP_SHARE`` of the iterations so far (each snapshot is the
+#: whole map: a million cells on the largest maps, so their count must grow with the
+#: logarithm of the run's length, not with the length itself).
 LOG_MAP_EVERY = 25
+LOG_MAP_SHARE = 0.05
 
 
 @dataclass(frozen=True)
@@ -95,9 +99,7 @@ def simulate(
     iteration = run.fly(progress)
     result = run.result(iteration)
     if log is not None:
-        log.coverage(iteration, result.belief, result.covered)
-        log.result(iteration, result)
-        log.close()
+        run.log_end(iteration, result)
     return result
 
 
@@ -126,6 +128,10 @@ class _LockstepRun:
             grid = replace(grid, pads=(mission.charger,))
         self.grid = grid
         self.ids = ids = [v.sysid for v in mission.fleet]
+        #: The iteration of the log's next map snapshot, and whether the BTPs changed
+        #: since the last one.
+        self.next_map = LOG_MAP_EVERY
+        self.btps_changed = False
         self.pace = Pace.of(mission, options.timed)
         self.world = LockstepWorld(
             grid,
@@ -232,36 +238,53 @@ class _LockstepRun:
         self._record(iteration)
         if self.log is not None:
             self._log_state(iteration)
-            if iteration % LOG_MAP_EVERY == 0:
-                belief = coordinator.belief
-                self.log.coverage(iteration, belief.state_grid(), belief.covered_grid())
+            if iteration >= self.next_map:
+                self.next_map = iteration + max(LOG_MAP_EVERY, int(LOG_MAP_SHARE * iteration))
+                self._log_map(iteration)
+
+    def log_end(self, iteration: int, result: RunResult) -> None:
+        """The last map, BTPs and the result; the log closed."""
+        assert self.log is not None
+        self.log.coverage(iteration, result.belief, result.covered)
+        if self.btps_changed:
+            self.log.btps(iteration, self.coordinator.btps())
+        self.log.result(iteration, result)
+        self.log.close()
+
+    def _log_map(self, iteration: int) -> None:
+        """The map and, if they changed, the BTPs: snapshots, on the same schedule."""
+        assert self.log is not None
+        belief = self.coordinator.belief
+        self.log.coverage(iteration, belief.state_grid(), belief.covered_grid())
+        if self.btps_changed:
+            self.btps_changed = False
+            self.log.btps(iteration, self.coordinator.btps())
 
     def _log_state(self, iteration: int) -> None:
         assert self.log is not None
-        for i in self.ids:
-            mode = self.coordinator.mode(i)
-            self.log.agent_state(
-                iteration, i, self.world.position[i], self.world.battery[i], mode.value
-            )
+        ids, world, mode = self.ids, self.world, self.coordinator.mode
+        step = FleetStep(
+            sysids=ids,
+            cells=[world.position[i] for i in ids],
+            battery_pct=[world.battery[i] for i in ids],
+            modes=[mode(i).value for i in ids],
+        )
+        self.log.fleet_step(iteration, step)
 
     def _record(self, iteration: int) -> None:
         """The planner's events of this iteration: to ``events``, the log and the BTP log."""
         log = self.log
-        btps_changed = False
         for event in self.coordinator.drain_events():
             if self.events is not None:
                 self.events.append((iteration, event))
             if log is not None:
-                btps_changed = btps_changed or event.kind in BTP_EVENTS
+                self.btps_changed = self.btps_changed or event.kind in BTP_EVENTS
                 if event.kind in LOGGED_EVENTS:
                     where = f" at {event.cell}" if event.cell is not None else ""
                     text = f"{event.kind.value}: vehicle {event.agent}{where}"
                     level = "error" if event.kind == EventKind.LOST else "info"
                     log.event(iteration, text, level, event.agent)
             self.btps.note(event, iteration)
-        if btps_changed:
-            assert log is not None
-            log.btps(iteration, self.coordinator.btps())
 
     def _agents(self) -> tuple[AgentTrace, ...]:
         cell_m, coordinator = self.mission.cell_size_m, self.coordinator

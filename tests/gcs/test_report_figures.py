@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from mcap.reader import make_reader
 from PIL import Image
 from rich.console import Console
 
@@ -368,7 +369,11 @@ def test_figures_of_a_cut_log_find_the_log_beside_them(tmp_path: Path) -> None:
     path = beside / MISSION_LOG
     log = open_mission_log(path, mission, chunk_size=2048)
     simulate(mission, log=log)
-    path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    with path.open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    chunks = sorted(c.chunk_start_offset for c in summary.chunk_indexes)
+    path.write_bytes(path.read_bytes()[: chunks[len(chunks) // 2]])  # cut mid-way
     result = read_log(path)
     assert result.interrupted and timeline(result) is None
     clock = timeline(result, read_contents(path))
