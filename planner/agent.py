@@ -132,6 +132,7 @@ class AgentRecord:
     #: ``MapBelief.stamp`` when ``path`` was last known to be a shortest path.
     path_known_at: tuple[int, int] | None = None
     held_for: int = 0  # decisions to wait before searching for a target again
+    launch_in: int = 0  # decisions to wait on the charger before the first move
     held_backoff: int = 0
     #: Asked to make way by an agent that is itself making way (see ``GiveWay``).
     pushed: bool = False

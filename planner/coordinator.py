@@ -87,6 +87,8 @@ class Coordinator:
             a.id: AgentRecord(a, belief.charger_index, team, slot, search.memory(team, slot))
             for slot, a in enumerate(agents)
         }
+        for a in self._agents.values():
+            a.launch_in = a.slot * settings.launch_interval
         self._events: list[PlannerEvent] = []
         self._recalled = False  # see ``recall``
         #: The direction of a move, by the difference of the flat indices.
@@ -139,6 +141,16 @@ class Coordinator:
         """The cells the agent is to move through after the move just decided: the rest
         of its way to its goal (the charger, when returning), as the planner keeps it."""
         return [self.belief.cell(i) for i in self._agents[agent].path]
+
+    def heading_for(self, agent: int) -> Cell | None:
+        """Where the agent is going along a planned path: its target in transit, the
+        charger when going home; None while it sweeps, waits or charges."""
+        a = self._agents[agent]
+        if a.mode == TRANSIT and a.goal is not None:
+            return self.belief.cell(a.goal)
+        if a.mode in HOMEWARD:
+            return self.belief.charger
+        return None
 
     def btps(self) -> list[Cell]:
         return [self.belief.cell(i) for i in self.stacks.owner]
@@ -295,6 +307,9 @@ class Coordinator:
             a.trailing = None
         mode = a.mode
         if mode == LOST:
+            return WAIT
+        if a.launch_in > 0:  # ``launch_interval``: not its turn to leave yet
+            a.launch_in -= 1
             return WAIT
         if mode in AT_REST and not self.homeward:
             a.mode = mode = IDLE  # back to work: something came into range again
