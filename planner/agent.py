@@ -155,6 +155,20 @@ class AgentRecord:
             self._working = working
             self.team.working[self.slot] = working
 
+    def going_to(self, charger: int) -> int | None:
+        """The end of the planned path it moves along: its target in transit, the
+        charger going home; None while it sweeps, waits or charges."""
+        if self._mode in HOMEWARD:
+            return charger
+        return self.goal if self._mode == TRANSIT else None
+
+    def held_at_launch(self) -> bool:
+        """Not its turn to leave the charger yet (``launch_interval``): one decision less."""
+        if self.launch_in <= 0:
+            return False
+        self.launch_in -= 1
+        return True
+
     def begin_charge(self) -> None:
         self.charges += 1
         self.swept = False

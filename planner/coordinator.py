@@ -143,14 +143,9 @@ class Coordinator:
         return [self.belief.cell(i) for i in self._agents[agent].path]
 
     def heading_for(self, agent: int) -> Cell | None:
-        """Where the agent is going along a planned path: its target in transit, the
-        charger when going home; None while it sweeps, waits or charges."""
-        a = self._agents[agent]
-        if a.mode == TRANSIT and a.goal is not None:
-            return self.belief.cell(a.goal)
-        if a.mode in HOMEWARD:
-            return self.belief.charger
-        return None
+        """Where the agent goes along a planned path (``AgentRecord.going_to``), or None."""
+        i = self._agents[agent].going_to(self.belief.charger_index)
+        return None if i is None else self.belief.cell(i)
 
     def btps(self) -> list[Cell]:
         return [self.belief.cell(i) for i in self.stacks.owner]
@@ -308,8 +303,7 @@ class Coordinator:
         mode = a.mode
         if mode == LOST:
             return WAIT
-        if a.launch_in > 0:  # ``launch_interval``: not its turn to leave yet
-            a.launch_in -= 1
+        if a.held_at_launch():
             return WAIT
         if mode in AT_REST and not self.homeward:
             a.mode = mode = IDLE  # back to work: something came into range again

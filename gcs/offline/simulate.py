@@ -314,12 +314,12 @@ class _LockstepRun:
             "btps_detected": coordinator.btps_detected,
             "cut_off_cells": coordinator.cut_off_cells,
             "total_iterations": iteration,
-            "path_iterations": (
-                self.path_steps.at_coverage
-                if self.path_steps.at_coverage is not None
-                else self.path_steps.busiest
-            ),
         }
+        if not self.options.timed:  # a count of steps, not of ticks
+            steps = self.path_steps
+            extra["path_iterations"] = (
+                steps.at_coverage if steps.at_coverage is not None else steps.busiest
+            )
         if self.options.timed:
             extra["mission_s"] = round(iteration * tick_s, 3)
             extra["coverage_s"] = round((self.coverage_iterations or iteration) * tick_s, 3)
