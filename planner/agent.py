@@ -132,6 +132,7 @@ class AgentRecord:
     #: ``MapBelief.stamp`` when ``path`` was last known to be a shortest path.
     path_known_at: tuple[int, int] | None = None
     held_for: int = 0  # decisions to wait before searching for a target again
+    launch_in: int = 0  # decisions to wait on the charger before the first move
     held_backoff: int = 0
     #: Asked to make way by an agent that is itself making way (see ``GiveWay``).
     pushed: bool = False
@@ -153,6 +154,20 @@ class AgentRecord:
         if working != self._working:  # a write to the array costs more than the test
             self._working = working
             self.team.working[self.slot] = working
+
+    def going_to(self, charger: int) -> int | None:
+        """The end of the planned path it moves along: its target in transit, the
+        charger going home; None while it sweeps, waits or charges."""
+        if self._mode in HOMEWARD:
+            return charger
+        return self.goal if self._mode == TRANSIT else None
+
+    def held_at_launch(self) -> bool:
+        """Not its turn to leave the charger yet (``launch_interval``): one decision less."""
+        if self.launch_in <= 0:
+            return False
+        self.launch_in -= 1
+        return True
 
     def begin_charge(self) -> None:
         self.charges += 1

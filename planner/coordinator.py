@@ -87,6 +87,8 @@ class Coordinator:
             a.id: AgentRecord(a, belief.charger_index, team, slot, search.memory(team, slot))
             for slot, a in enumerate(agents)
         }
+        for a in self._agents.values():
+            a.launch_in = a.slot * settings.launch_interval
         self._events: list[PlannerEvent] = []
         self._recalled = False  # see ``recall``
         #: The direction of a move, by the difference of the flat indices.
@@ -139,6 +141,11 @@ class Coordinator:
         """The cells the agent is to move through after the move just decided: the rest
         of its way to its goal (the charger, when returning), as the planner keeps it."""
         return [self.belief.cell(i) for i in self._agents[agent].path]
+
+    def heading_for(self, agent: int) -> Cell | None:
+        """Where the agent goes along a planned path (``AgentRecord.going_to``), or None."""
+        i = self._agents[agent].going_to(self.belief.charger_index)
+        return None if i is None else self.belief.cell(i)
 
     def btps(self) -> list[Cell]:
         return [self.belief.cell(i) for i in self.stacks.owner]
@@ -295,6 +302,8 @@ class Coordinator:
             a.trailing = None
         mode = a.mode
         if mode == LOST:
+            return WAIT
+        if a.held_at_launch():
             return WAIT
         if mode in AT_REST and not self.homeward:
             a.mode = mode = IDLE  # back to work: something came into range again

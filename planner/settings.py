@@ -52,6 +52,20 @@ class BmRule(StrEnum):
 
     PAPER = "paper"  # first of N, S, E, W
     TIGHT = "tight"  # fewest onward openings first, then N, S, E, W
+    #: Straight on while the way ahead is open, else the first of N, S, E, W: the
+    #: paper's "translates forward or backward ... until it reaches a blocked
+    #: position" read literally (Section 3.1).
+    FORWARD = "forward"
+
+
+class BtpChoice(StrEnum):
+    """Which of the backtracking points in a stack a blocked agent takes (the
+    ``own_first`` and ``nearest`` target policies; the safety net and ``frontier``
+    always take the nearest along the way)."""
+
+    PATH = "path"  # the nearest along the known free cells (the paper's Algorithm 3)
+    LINE = "line"  # the nearest by straight line
+    LAST = "last"  # the last found: the top of the stack
 
 
 @dataclass(frozen=True)
@@ -119,6 +133,15 @@ class PlannerSettings:
     charge_at_end: bool = False
     #: Iterations an agent waits on another before asking it to make way.
     patience: int = 2
+    #: Which BTP of a stack a blocked agent takes (other readings of the paper).
+    btp_choice: BtpChoice = BtpChoice.PATH
+    #: The safety net (an uncovered cell that is no BTP) is taken only when no other
+    #: agent is working; before, an agent without a BTP waits, as the paper's "a free
+    #: agent is waiting for the first available BTP" reads (``own_first``, ``nearest``).
+    net_when_alone: bool = False
+    #: The decisions between two agents' first moves from the charger (0: every agent
+    #: may leave at once, one after another as the cells ahead free up).
+    launch_interval: int = 0
     #: Share of known free cells that are PRM nodes, and the connection radius in
     #: cells (only for ``PathPlannerKind.PRM``).
     prm_node_fraction: float = 0.15
@@ -140,3 +163,5 @@ class PlannerSettings:
             raise ValueError("far_transit_recheck must not be negative")
         if not 0 <= self.top_up_ratio <= 1:
             raise ValueError("top_up_ratio must be in [0, 1]")
+        if self.launch_interval < 0:
+            raise ValueError("launch_interval must not be negative")

@@ -28,7 +28,8 @@ class Sweep:
         self.belief = belief
         self._occupant = occupant
         self._team = team
-        self._paper_sweep = settings.bm_rule == BmRule.PAPER
+        self._paper_sweep = settings.bm_rule in (BmRule.PAPER, BmRule.FORWARD)
+        self._forward = settings.bm_rule == BmRule.FORWARD
         self._spread = settings.bm_spread
 
     def next_cell(self, a: AgentRecord) -> int | None:
@@ -39,6 +40,7 @@ class Sweep:
         uncovered ways on they leave (fewest first, unknown counting as open),
         then by the paper's order: it sweeps into dead ends and narrow strips
         before leaving them, so fewer pockets are left behind to come back for.
+        ``BmRule.FORWARD`` goes straight on when it can, else as the paper.
         With ``bm_spread``, equally tight moves are ranked by the distance to the
         nearest other working agent, farthest first, so that sweeps move apart
         instead of cutting into each other's area.
@@ -52,6 +54,10 @@ class Sweep:
             if state[v] == _FREE and not covered[v] and v not in occupant:
                 candidates.append(v)
         if len(candidates) <= 1 or self._paper_sweep:
+            if self._forward and a.heading is not None and len(candidates) > 1:
+                ahead = here + self.belief.offset[a.heading]
+                if ahead in candidates:
+                    return ahead
             return candidates[0] if candidates else None
         counts = []
         for v in candidates:

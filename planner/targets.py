@@ -29,7 +29,7 @@ from planner.agent import (
 )
 from planner.belief import MapBelief
 from planner.prm import Roadmap
-from planner.settings import PlannerSettings, TargetPolicy
+from planner.settings import BtpChoice, PlannerSettings, TargetPolicy
 from planner.staying_alive import EPS as _EPS
 from planner.staying_alive import StayingAlive
 from planner.target_search import Energy, Hint, SearchRequest, TargetSearch
@@ -102,6 +102,8 @@ class Targets:
         self._claims = traffic.claims
         self._events = events
         self._tiers = _TIERS[settings.target_policy]
+        #: A BTP is taken by ``btp_choice`` rather than by the ranked search.
+        self._by_choice = settings.btp_choice != BtpChoice.PATH
         self.safety_net_fires = 0
 
     def take(self, a: AgentRecord) -> Action:
@@ -119,9 +121,18 @@ class Targets:
         uncovered = self.belief.uncovered
         hint = self._hint(a, previous, old_path)
         any_candidate = False
+        found: _Found
         for tier in self._tiers:
             pool = self._pool(tier, a)
-            if self._roadmap is None:
+            if tier == _Tier.NET and self.settings.net_when_alone and self._others_working(a):
+                continue  # wait for a BTP while the others may still find one
+            if self._by_choice and tier in (_Tier.OWN, _Tier.GLOBAL):
+                found = self._chosen_btp(a, pool)
+                if found is None:
+                    any_candidate = any_candidate or self._any_in_range(pool)
+                    continue
+                any_candidate = True
+            elif self._roadmap is None:
                 found = self._nearest_affordable(a, None if pool is uncovered else pool, hint)
                 if found is None:
                     any_candidate = any_candidate or self._any_in_range(pool)
@@ -167,6 +178,36 @@ class Targets:
         """Is a target of ``pool`` left that nobody chases and a full charge reaches?"""
         claims, in_range = self._claims, self._alive.in_range
         return any(i not in claims and in_range(i) for i in pool)
+
+    def _others_working(self, a: AgentRecord) -> bool:
+        working = self._team.working
+        return bool(working.sum() - working[a.slot])
+
+    def _chosen_btp(self, a: AgentRecord, pool: Collection[int]) -> _Found:
+        """The BTP of ``pool`` that ``btp_choice`` names first (nearest by straight line,
+        or the last found) among those nobody chases and the agent can afford, with
+        a shortest way there (or the roadmap's)."""
+        belief, claims, alive = self.belief, self._claims, self._alive
+        if self.settings.btp_choice == BtpChoice.LAST:
+            order: Iterable[int] = reversed(list(pool))
+        else:
+            r, c = belief.cell(a.index)
+
+            def line(i: int) -> tuple[int, int]:
+                dr, dc = belief.cell(i)
+                return (dr - r) ** 2 + (dc - c) ** 2, i
+
+            order = sorted(pool, key=line)
+        for goal in order:
+            if goal in claims or not alive.in_range(goal):
+                continue
+            if self._roadmap is not None:
+                path = self._roadmap.path(belief, a.index, goal)
+            else:
+                path = self._search.path(a.index, goal)
+            if path and alive.can_afford(a, len(path), goal):
+                return goal, path
+        return None
 
     def _nearest_on_roadmap(self, a: AgentRecord, candidates: set[int]) -> _Found:
         """The paper's way: the nearest affordable candidate along the roadmap."""

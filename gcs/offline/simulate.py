@@ -1,7 +1,9 @@
 """Offline simulation: the planner against the ground-truth world, in lockstep iterations.
 
-An iteration gives every agent one decision (at most one move each), as the
-paper counts them. With ``SimOptions.timed`` an iteration is instead a tick of
+An iteration gives every agent one decision (at most one move each). The run
+also counts iterations the other way the paper may count them
+(``PathSteps``): a sweep step is one, and so is a whole planned path to a
+target or to the charger. With ``SimOptions.timed`` an iteration is instead a tick of
 mission time: each vehicle decides once per cell at its own speed and charges
 at its own rate, as the live fleet does, so the plan predicts a live run.
 The planner only ever sees what the world's sensing answers at the cells its
@@ -47,6 +49,30 @@ BTP_EVENTS = frozenset({EventKind.BTP_DETECTED, EventKind.BTP_COVERED, EventKind
 #: logarithm of the run's length, not with the length itself).
 LOG_MAP_EVERY = 25
 LOG_MAP_SHARE = 0.05
+
+
+class PathSteps:
+    """Each agent's moves with every planned path counted once: a move counts unless
+    it goes on along the path of the agent's previous move (the same target, or the
+    charger). The run's count is the busiest agent's, until coverage is complete."""
+
+    def __init__(self, ids: list[int]) -> None:
+        self.steps = dict.fromkeys(ids, 0)
+        self._going_to: dict[int, Cell | None] = dict.fromkeys(ids)
+        self.at_coverage: int | None = None
+
+    def moved(self, agent: int, going_to: Cell | None) -> None:
+        """The agent moved; ``going_to``: the end of the path it moves along, if any."""
+        if going_to is None or going_to != self._going_to[agent]:
+            self.steps[agent] += 1
+        self._going_to[agent] = going_to
+
+    def coverage_complete(self) -> None:
+        self.at_coverage = self.busiest
+
+    @property
+    def busiest(self) -> int:
+        return max(self.steps.values(), default=0)
 
 
 @dataclass(frozen=True)
@@ -151,6 +177,7 @@ class _LockstepRun:
         self.batteries: dict[int, list[float]] = {i: [100.0] for i in ids}
         self.path_moves = dict.fromkeys(ids, 0)
         self.homing_moves = dict.fromkeys(ids, 0)
+        self.path_steps = PathSteps(ids)
         self.covered_series = [self.coordinator.belief.covered_count]
         self.btps = BtpLog()
         self.coverage_iterations: int | None = None
@@ -206,6 +233,7 @@ class _LockstepRun:
                     self.homing_moves[i] += 1
                 else:
                     self.path_moves[i] += 1
+                self.path_steps.moved(i, coordinator.heading_for(i))
                 tick = time.perf_counter()
                 if i in world.dead:
                     coordinator.mark_lost(i)
@@ -235,6 +263,7 @@ class _LockstepRun:
         # coverage-complete event, which belongs to this iteration.
         if self.coverage_iterations is None and coordinator.coverage_complete:
             self.coverage_iterations = iteration
+            self.path_steps.coverage_complete()
         self._record(iteration)
         if self.log is not None:
             self._log_state(iteration)
@@ -309,6 +338,11 @@ class _LockstepRun:
             "cut_off_cells": coordinator.cut_off_cells,
             "total_iterations": iteration,
         }
+        if not self.options.timed:  # a count of steps, not of ticks
+            steps = self.path_steps
+            extra["path_iterations"] = (
+                steps.at_coverage if steps.at_coverage is not None else steps.busiest
+            )
         if self.options.timed:
             extra["mission_s"] = round(iteration * tick_s, 3)
             extra["coverage_s"] = round((self.coverage_iterations or iteration) * tick_s, 3)

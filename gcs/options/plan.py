@@ -15,9 +15,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="run the planner offline against the mission's map (no MAVLink)",
         description=(
             "Run the planner against a simulated world built from the mission's map, in "
-            "lockstep steps (every vehicle moves at most one cell per step, as the paper "
-            "counts its iterations). Prints a summary; with --out writes report.json, figures "
-            "and the MCAP log."
+            "lockstep steps (every vehicle moves at most one cell per step; report.json also "
+            "counts a planned path as one iteration, as the paper counts them). Prints a "
+            "summary; with --out writes report.json, figures and the MCAP log."
         ),
     )
     add_mission_arguments(p)

@@ -163,7 +163,7 @@ def _steps_label(result: RunResult) -> str:
 def summary_rows(result: RunResult) -> list[tuple[str, str]]:
     """Label/value pairs for the terminal summary table."""
     n_agents = len(result.agents)
-    return [
+    rows = [
         ("Mission", result.mission),
         ("Result", _verdict(result)),
         ("Map", f"{result.shape[0]} x {result.shape[1]} cells of {result.cell_size_m:g} m"),
@@ -186,6 +186,10 @@ def summary_rows(result: RunResult) -> list[tuple[str, str]]:
             f"{result.planner_s:.3f} s ({us_per_agent_step(result):.1f} µs per decision)",
         ),
     ]
+    if "path_iterations" in result.extra:  # a plan's: the paper's count (gcs.offline.simulate)
+        at = rows.index((_steps_label(result), str(result.iterations))) + 1
+        rows.insert(at, ("The same, a planned path as one", str(result.extra["path_iterations"])))
+    return rows
 
 
 def _summary_table(result: RunResult) -> Table:

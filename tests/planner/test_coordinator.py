@@ -4,12 +4,14 @@ policy."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from core.cells import NEIGHBOURS, Cell, CellState, Direction
 from planner.agent import AgentMode, EventKind
 from planner.coordinator import Coordinator
-from planner.settings import AgentSpec, BmRule, PlannerSettings
+from planner.settings import AgentSpec, BmRule, BtpChoice, PlannerSettings, TargetPolicy
 
 FREE, OBST = CellState.FREE, CellState.OBSTACLE
 
@@ -145,3 +147,71 @@ def test_no_two_agents_share_a_cell_or_swap_cells() -> None:
             at[s.id] = action.to
     assert c.finished
     assert c.belief.covered_count == int((~walls).sum())
+
+
+def _sweep(c: Coordinator, walls: np.ndarray, agent: int, moves: int) -> list[Cell | None]:
+    """The cells of the agent's next ``moves`` decisions (None: no move)."""
+    cells: list[Cell | None] = []
+    for _ in range(moves):
+        action = c.decide(agent)
+        cells.append(action.to)
+        if action.to is not None:
+            c.observe(agent, action.to, _readings(walls, action.to), 100.0)
+    return cells
+
+
+def test_the_forward_rule_goes_straight_on_where_the_paper_turns_north_or_south() -> None:
+    rows = ["#######", "#.....#", "#.....#", "#C....#", "#######"]
+    walls, _ = _walls(rows)
+    paper = _known(rows, [AgentSpec(1, 0.0)], PlannerSettings(bm_rule=BmRule.PAPER))
+    assert _sweep(paper, walls, 1, 4) == [(2, 1), (1, 1), (1, 2), (2, 2)]
+    forward = _known(rows, [AgentSpec(1, 0.0)], PlannerSettings(bm_rule=BmRule.FORWARD))
+    assert _sweep(forward, walls, 1, 4) == [(2, 1), (1, 1), (1, 2), (1, 3)]
+
+
+def test_with_a_launch_interval_agents_leave_the_charger_one_after_another() -> None:
+    rows = ["#######", "#.....#", "#.....#", "#C....#", "#######"]
+    walls, _ = _walls(rows)
+    specs = [AgentSpec(1, 0.0), AgentSpec(2, 0.0)]
+    c = _known(rows, specs, PlannerSettings(launch_interval=3))
+    assert _sweep(c, walls, 1, 1) != [None]
+    assert _sweep(c, walls, 2, 4)[:3] == [None, None, None]
+
+
+def test_every_reading_of_the_paper_covers_the_rooms() -> None:
+    """The other readings of the paper (``BmRule.FORWARD``, ``BtpChoice``,
+    ``net_when_alone``, ``launch_interval``) still cover every cell."""
+    rows = [
+        "###########",
+        "#....#....#",
+        "#....#....#",
+        "#.........#",
+        "#....#....#",
+        "####.###.##",
+        "#.........#",
+        "#....C....#",
+        "###########",
+    ]
+    walls, charger = _walls(rows)
+    paper = PlannerSettings(
+        bm_rule=BmRule.PAPER, target_policy=TargetPolicy.OWN_FIRST, spread=False
+    )
+    readings = [
+        replace(paper, bm_rule=BmRule.FORWARD),
+        replace(paper, btp_choice=BtpChoice.LINE),
+        replace(paper, btp_choice=BtpChoice.LAST, replan_transit=False),
+        replace(paper, net_when_alone=True),
+        replace(paper, launch_interval=5),
+    ]
+    for settings in readings:
+        specs = [AgentSpec(i, 0.0) for i in range(1, 4)]
+        c = Coordinator(walls.shape, charger, specs, settings)
+        for s in specs:
+            c.observe(s.id, charger, _readings(walls, charger), 100.0)
+        for _ in range(600):
+            if c.finished:
+                break
+            for s in specs:
+                _sweep(c, walls, s.id, 1)
+        assert c.finished, settings
+        assert c.belief.covered_count == int((~walls).sum()), settings
