@@ -10,10 +10,12 @@ import argparse
 import multiprocessing
 import platform
 import resource
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from multiprocessing.connection import Connection
+from pathlib import Path
 from typing import Any
 
 from rich.console import Console
@@ -22,14 +24,18 @@ from rich.table import Table
 from gcs.bench.common import chosen, parse_settings, positive_numbers, write_json
 from gcs.bench.machine_pace import reference_seconds
 from gcs.bench.perf_live import live_table, run_live_case, web_pairs, web_table
+from gcs.bench.perf_log import Goal, log_goals, log_pairs, log_table
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.generated_missions import GENERATORS, MAP_SEED, case_mission
+from gcs.log.mcap_log import McapMissionLog
 from gcs.offline.simulate import SimOptions, simulate
 from gcs.options.bench import PERF_LINKS
 from gcs.planning import planner_settings
 from planner import native
 
+#: A logged planner case's log file (in a folder of its own, removed after the case).
+LOG_FILE = "mission.mcap"
 #: Wall seconds between a planner case's reports of its coverage so far.
 PROGRESS_EVERY_S = 1.0
 #: The scaling goals, judged on the figures of the cases that measure them: the
@@ -58,15 +64,17 @@ class PlannerCase:
     agents: int
     #: Planner settings other than the defaults, as (name, value) pairs.
     settings: tuple[tuple[str, Any], ...] = ()
+    #: Written to a mission log, as ``gcs plan --out`` does.
+    log: bool = False
 
     def figures(self) -> dict[str, Any]:
         return {**asdict(self), "settings": dict(self.settings)}
 
 
-def _run_case(case: PlannerCase, out: Connection) -> None:
+def _run_case(case: PlannerCase, out: Connection, folder: Path) -> None:
     """In a child process: generate, simulate, send back the figures (and, every
     ``PROGRESS_EVERY_S`` meanwhile, the coverage so far: a case stopped at its limit
-    is reported with how far it got)."""
+    is reported with how far it got). A logged case writes its log in ``folder``."""
     t0 = time.perf_counter()
     grid = GENERATORS[case.kind](case.size, case.size, MAP_SEED)
     mission = case_mission(grid, case.agents, f"{case.kind}{case.size}")
@@ -80,7 +88,13 @@ def _run_case(case: PlannerCase, out: Connection) -> None:
             next_report += PROGRESS_EVERY_S
             out.send({"iterations": iteration, "coverage_pct": round(100 * covered / free, 2)})
 
-    result = simulate(mission, SimOptions(settings=settings), progress=report)
+    log = None
+    if case.log:
+        free = int(mission.map.reachable(mission.charger).sum())
+        log = McapMissionLog.for_mission(mission, folder / LOG_FILE, free_cells=free)
+    started = time.perf_counter()
+    result = simulate(mission, SimOptions(settings=settings), progress=report, log=log)
+    run_s = time.perf_counter() - started  # with the log's last writes and its close
     steps = max(1, result.iterations * case.agents)
     out.send(
         {
@@ -89,6 +103,8 @@ def _run_case(case: PlannerCase, out: Connection) -> None:
             "free_cells": result.free_cells,
             "setup_s": round(setup_s, 2),
             "wall_s": round(result.wall_s, 2),
+            "run_s": round(run_s, 2),
+            "log_bytes": (folder / LOG_FILE).stat().st_size if case.log else None,
             "planner_s": round(result.planner_s, 2),
             "us_per_agent_step": round(1e6 * result.planner_s / steps, 1),
             "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss // 1024,
@@ -123,7 +139,8 @@ def run_planner_case(case: PlannerCase, limit_s: float) -> dict[str, Any]:
     """One case in a fresh child process, stopped after ``limit_s`` wall seconds."""
     context = multiprocessing.get_context("fork")
     receive, send = context.Pipe(duplex=False)
-    child = context.Process(target=_run_case, args=(case, send), daemon=True)
+    folder = tempfile.TemporaryDirectory(prefix="gcs-perf-")
+    child = context.Process(target=_run_case, args=(case, send, Path(folder.name)), daemon=True)
     child.start()
     send.close()
     deadline = time.perf_counter() + limit_s
@@ -143,6 +160,7 @@ def run_planner_case(case: PlannerCase, limit_s: float) -> dict[str, Any]:
             child.terminate()
         child.join(5)
         receive.close()
+        folder.cleanup()
 
 
 def settings_text(settings: dict[str, Any]) -> str:
@@ -169,7 +187,7 @@ def planner_table(rows: list[dict[str, Any]], settings: dict[str, Any] | None = 
     ):
         table.add_column(name, justify="left" if name == "map" else "right")
     for r in rows:
-        label = f"{r['kind']} {r['size']}x{r['size']}"
+        label = f"{r['kind']} {r['size']}x{r['size']}" + (" +log" if r.get("log") else "")
         if "error" in r:
             reached = f"{r['coverage_pct']:.1f}" if "coverage_pct" in r else ""
             table.add_row(label, "", str(r["agents"]), r["error"], *[""] * 3, reached, *[""] * 4)
@@ -193,15 +211,6 @@ def planner_table(rows: list[dict[str, Any]], settings: dict[str, Any] | None = 
 
 def _complete(row: dict[str, Any]) -> bool:
     return "error" not in row and row["coverage_pct"] >= 100 and not row["lost"]
-
-
-@dataclass(frozen=True)
-class Goal:
-    what: str
-    measured: str
-    met: bool
-    #: Judged beyond the goal's own cases (``STRETCH_KINDS``).
-    stretch: bool = False
 
 
 def goals(planner_rows: list[dict[str, Any]], live_rows: list[dict[str, Any]]) -> list[Goal]:
@@ -302,6 +311,8 @@ class _PerfCases:
     agents: list[int]
     vehicles: list[int]
     settings: dict[str, Any]
+    #: Each planner case without its log, with it, or both (in that order).
+    logs: tuple[bool, ...]
 
     @classmethod
     def of(cls, args: argparse.Namespace) -> _PerfCases:
@@ -311,6 +322,7 @@ class _PerfCases:
             vehicles=positive_numbers(args.vehicles, "vehicles"),
             kinds=chosen(args.kinds, "kinds", list(GENERATORS)),
             settings=parse_settings(args.changes, "set"),
+            logs={"off": (False,), "on": (True,), "both": (False, True)}[args.log],
         )
 
 
@@ -340,6 +352,10 @@ def run_perf(args: argparse.Namespace) -> int:
         planner_rows = _planner_rows(cases, args.case_limit, progress)
         figures["planner"] = planner_rows
         console.print(planner_table(planner_rows, cases.settings))
+        logged = log_pairs(planner_rows)
+        if logged:
+            figures["log"] = logged
+            console.print(log_table(logged))
     if not args.skip_live:
         live_rows = _live_rows(cases, args, progress)
         figures["live"] = {"speedup": args.live_speedup, "runs": live_rows}
@@ -348,7 +364,7 @@ def run_perf(args: argparse.Namespace) -> int:
         if pairs:
             figures["web"] = pairs
             console.print(web_table(pairs))
-    found = goals(planner_rows, live_rows)
+    found = goals(planner_rows, live_rows) + log_goals(log_pairs(planner_rows), GOAL_SIDE)
     if found:
         figures["goals"] = [asdict(goal) for goal in found]
         console.print(goals_table(found))
@@ -365,9 +381,11 @@ def _planner_rows(cases: _PerfCases, limit_s: float, progress: Console) -> list[
     for kind in cases.kinds:
         for size in cases.sizes:
             for n in cases.agents:
-                progress.print(f"planner: {kind} {size}x{size}, {n} agents ...")
-                case = PlannerCase(kind, size, n, tuple(cases.settings.items()))
-                rows.append(run_planner_case(case, limit_s))
+                for log in cases.logs:  # side by side: the machine's drift shows on both
+                    with_log = " with its log" if log else ""
+                    progress.print(f"planner: {kind} {size}x{size}, {n} agents{with_log} ...")
+                    case = PlannerCase(kind, size, n, tuple(cases.settings.items()), log)
+                    rows.append(run_planner_case(case, limit_s))
     return rows
 
 

@@ -236,6 +236,13 @@ def _perf(p: argparse.ArgumentParser) -> None:
         metavar="S",
         help="stop a planner case after S wall seconds (default 600)",
     )
+    p.add_argument(
+        "--log",
+        choices=["off", "on", "both"],
+        default="both",
+        help="run each planner case without a mission log, with one (as gcs plan --out "
+        "writes), or both side by side, and compare (default both)",
+    )
     p.add_argument("--vehicles", default="1,16,64", help="live fleet sizes (default 1,16,64)")
     p.add_argument(
         "--live-speedup",

@@ -26,15 +26,24 @@ def test_planner_cases_print_and_write_their_figures(tmp_path: Path, capsys) -> 
     figures = json.loads(out.read_text())
     assert figures["reference_s"] > 0  # the machine's pace on the day, beside the figures
     rows = figures["planner"]
-    assert [(r["kind"], r["size"], r["agents"]) for r in rows] == [
-        (kind, 24, n) for kind in ("rooms", "building", "open") for n in (1, 3)
+    assert [(r["kind"], r["size"], r["agents"], r["log"]) for r in rows] == [
+        (kind, 24, n, log)
+        for kind in ("rooms", "building", "open")
+        for n in (1, 3)
+        for log in (False, True)  # each case without its mission log, then with it
     ]
     for r in rows:
         assert r["coverage_pct"] == 100.0 and r["lost"] == 0
         assert r["charges"] >= 1  # the battery keeps the staying alive policy at work
         assert r["peak_mb"] > 0 and r["us_per_agent_step"] > 0
+        assert (r["log_bytes"] > 0) if r["log"] else r["log_bytes"] is None
+    pairs = figures["log"]
+    assert len(pairs) == 6
+    for pair in pairs:
+        assert pair["same_plan"] and pair["ratio"] > 0
     printed = capsys.readouterr().out
     assert "offline planner" in printed and "machine pace" in printed
+    assert "the mission log's cost" in printed
 
 
 def test_planner_settings_reach_the_cases(tmp_path: Path, capsys, monkeypatch) -> None:
@@ -44,6 +53,7 @@ def test_planner_settings_reach_the_cases(tmp_path: Path, capsys, monkeypatch) -
     monkeypatch.setattr(bench_perf, "GOAL_AGENTS", 3)
     out = tmp_path / "perf.json"
     args = ["bench", "perf", "--sizes", "24", "--agents", "3", "--kinds", "rooms", "--skip-live"]
+    args += ["--log", "off"]
     assert main([*args, "--json", str(out)]) == 0
     (default,) = json.loads(out.read_text())["planner"]
     assert main([*args, "--set", "far_transit_recheck=1", "--json", str(out)]) == 0
@@ -65,7 +75,7 @@ def test_planner_settings_reach_the_cases(tmp_path: Path, capsys, monkeypatch) -
 def test_a_case_over_its_limit_is_reported_not_waited_for(tmp_path: Path, capsys) -> None:
     """Stopped at its limit, with how far it got (its coverage reported meanwhile)."""
     out = tmp_path / "perf.json"
-    args = ["bench", "perf", "--sizes", "300", "--agents", "50", "--kinds", "rooms"]
+    args = ["bench", "perf", "--sizes", "300", "--agents", "50", "--kinds", "rooms", "--log", "off"]
     code = main([*args, "--skip-live", "--case-limit", "4", "--json", str(out)])
     assert code == 1
     (row,) = json.loads(out.read_text())["planner"]
