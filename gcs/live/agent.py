@@ -147,6 +147,7 @@ class Agent:
         self.id = spec.sysid
         self.link = link
         self.pilot = pilot
+        pilot.known_free = planner.coordinator.belief.is_free  # a car lines up clear of walls
         self.planner = planner
         self.estimator = estimator
         self.view = view
