@@ -388,13 +388,7 @@ class McapMissionLog:
         if self._closed:
             return
         row, col = int(cell[0]), int(cell[1])
-        sensed = f',"sensed":"{sensed_code(readings)}"' if readings else ""
-        state = (
-            f'{{"t_s":{float(t_s)!r},"sysid":{int(sysid)},"battery_pct":{float(battery_pct)!r},'
-            f'"mode":{json.dumps(str(mode))},"row":{row},"col":{col},"cell":[{row},{col}]'
-            f"{sensed}}}"
-        )
-        self._write(f"/vehicle/{sysid}/battery", BATTERY_SCHEMA, t_s, state.encode())
+        self._state(t_s, sysid, (row, col), battery_pct, mode, readings)
         vehicle = self._vehicle(sysid)
         lat_deg, lon_deg, heading_deg = fix or (None, None, None)
         if heading_deg is None and vehicle.last_cell is not None:
@@ -414,6 +408,25 @@ class McapMissionLog:
         if self._btps is not None and t_s >= self._next_btps_t:
             self._emit_btps(t_s)
 
+    def _state(
+        self,
+        t_s: float,
+        sysid: int,
+        cell: Cell,
+        battery_pct: float,
+        mode: str,
+        readings: Mapping[Direction, CellState] | None = None,
+    ) -> None:
+        """``/vehicle/N/battery``: battery, mode, cell and what was sensed there."""
+        row, col = cell
+        sensed = f',"sensed":"{sensed_code(readings)}"' if readings else ""
+        state = (
+            f'{{"t_s":{float(t_s)!r},"sysid":{int(sysid)},"battery_pct":{float(battery_pct)!r},'
+            f'"mode":{json.dumps(str(mode))},"row":{row},"col":{col},"cell":[{row},{col}]'
+            f"{sensed}}}"
+        )
+        self._write(f"/vehicle/{sysid}/battery", BATTERY_SCHEMA, t_s, state.encode())
+
     def fleet_step(self, t_s: float, step: FleetStep) -> None:
         if self._closed:
             return
@@ -424,8 +437,9 @@ class McapMissionLog:
 
     def _write_steps(self) -> None:
         """The gathered steps as one ``/fleet/states`` message (columns, encoded by the
-        JSON library at C speed); each vehicle's track through them, and its pose and
-        fix at the last one."""
+        JSON library at C speed); each vehicle's track through them, and its pose, fix
+        and ``/vehicle/N/battery`` state at the last one (for Foxglove's panels; a
+        reader takes the states from ``/fleet/states``)."""
         steps, self._steps = self._steps, []
         if not steps:
             return
@@ -442,12 +456,13 @@ class McapMissionLog:
         self._json(FLEET_STATES_TOPIC, FLEET_STATES_SCHEMA, t_s, states)
         # Each vehicle's cells through the steps: the steps' rows, transposed.
         tracks = zip(*(step.cells for _, step in steps), strict=True)
-        for sysid, cells in zip(last.sysids, tracks, strict=True):
+        for k, (sysid, cells) in enumerate(zip(last.sysids, tracks, strict=True)):
             vehicle = self._vehicle(sysid)
             self._track_through(vehicle, cells)
-            here = vehicle.last_cell
-            shown = (*here, None, None, vehicle.heading_deg) if here is not None else None
-            if here is not None and shown != vehicle.last_fix:
+            here = (int(last.cells[k][0]), int(last.cells[k][1]))
+            self._state(t_s, sysid, here, last.battery_pct[k], last.modes[k])
+            shown = (*here, None, None, vehicle.heading_deg)
+            if shown != vehicle.last_fix:
                 vehicle.last_fix = shown
                 self._position(t_s, vehicle, here, None, None)
         self._scenes_due(t_s)

@@ -150,6 +150,8 @@ def _take(contents: LogContents, channel: Channel, message: Message) -> None:
     except ValueError:
         return
     if topic.startswith("/vehicle/") and topic.endswith("/battery"):
+        if FLEET_STATES_TOPIC in contents.topics:
+            return  # an offline run's: every step of it is in /fleet/states
         state = VehicleState(
             float(data["t_s"]),
             (int(data["row"]), int(data["col"])),

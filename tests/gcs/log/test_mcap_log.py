@@ -73,7 +73,7 @@ def test_log_has_foxglove_schemas_and_topics(run: tuple[RunResult, Path]) -> Non
     topics = {"/map", "/events", "/scene/tracks", "/scene/btps", "/run/meta", "/run/result"}
     topics.add("/fleet/states")  # an offline run's states, gathered
     for sysid in (1, 2, 3):
-        topics |= {f"/vehicle/{sysid}/{kind}" for kind in ("fix", "pose")}
+        topics |= {f"/vehicle/{sysid}/{kind}" for kind in ("fix", "pose", "battery")}
     assert topics <= set(channels)
     assert all(channels[t].message_encoding == "json" for t in topics)
     assert schemas["foxglove.Grid"].id == channels["/map"].schema_id
