@@ -217,8 +217,8 @@ def goals(planner_rows: list[dict[str, Any]], live_rows: list[dict[str, Any]]) -
     """The scaling goals that these figures measure, each met or not."""
     found = []
     for r in planner_rows:
-        if (r["size"], r["agents"]) != (GOAL_SIDE, GOAL_AGENTS):
-            continue
+        if (r["size"], r["agents"]) != (GOAL_SIDE, GOAL_AGENTS) or r.get("log"):
+            continue  # the goal is the planner's; the log's is judged on its pairs
         what = (
             f"planner, {r['kind']} {GOAL_SIDE}x{GOAL_SIDE}, {GOAL_AGENTS} agents"
             + settings_text(r.get("settings", {}))
