@@ -101,6 +101,10 @@ class PlannerSettings:
     #: Among equally tight moves, take the one farthest from the other working
     #: agents (``BmRule.TIGHT`` only).
     bm_spread: bool = True
+    #: Among equally tight moves, go straight on when that is one of them, before
+    #: ``bm_spread`` ranks the rest (``BmRule.TIGHT`` only). Not shorter in the
+    #: mean of the maps measured (docs/performance.md), hence off.
+    bm_straight: bool = False
     #: Prefer targets that no other working agent is closer to.
     spread: bool = True
     #: With ``spread``, when every target is nearer to another working agent:

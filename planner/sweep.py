@@ -31,6 +31,7 @@ class Sweep:
         self._paper_sweep = settings.bm_rule in (BmRule.PAPER, BmRule.FORWARD)
         self._forward = settings.bm_rule == BmRule.FORWARD
         self._spread = settings.bm_spread
+        self._straight = settings.bm_straight
 
     def next_cell(self, a: AgentRecord) -> int | None:
         """The next cell of the boustrophedon motion (Algorithm 1), or None when blocked.
@@ -41,7 +42,9 @@ class Sweep:
         then by the paper's order: it sweeps into dead ends and narrow strips
         before leaving them, so fewer pockets are left behind to come back for.
         ``BmRule.FORWARD`` goes straight on when it can, else as the paper.
-        With ``bm_spread``, equally tight moves are ranked by the distance to the
+        With ``bm_straight``, of equally tight moves the one straight on is taken
+        when it is one of them (longer lanes, fewer turns). With ``bm_spread``,
+        equally tight moves are ranked by the distance to the
         nearest other working agent, farthest first, so that sweeps move apart
         instead of cutting into each other's area.
         """
@@ -69,6 +72,10 @@ class Sweep:
             counts.append(n)
         tightest = min(counts)
         tied = [v for v, n in zip(candidates, counts, strict=True) if n == tightest]
+        if self._straight and len(tied) > 1 and a.heading is not None:
+            ahead = here + self.belief.offset[a.heading]
+            if ahead in tied:
+                return ahead
         if len(tied) == 1 or not self._spread:
             return tied[0]
         rows, cols = self._team.others(a.slot)
