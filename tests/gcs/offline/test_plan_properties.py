@@ -116,6 +116,31 @@ def test_every_strategy_keeps_the_invariants(
     run_checked(mission, settings_)
 
 
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    grid=small_maps,
+    agents=st.integers(1, 6),
+    hold=st.sampled_from([5, 12, 16, 24]),
+    backoff=st.sampled_from([2, 4, 8]),
+    headroom=st.sampled_from([None, 0.1, 0.5]),
+)
+def test_the_short_path_variants_keep_the_invariants(
+    grid: GridMap,
+    agents: int,
+    hold: int,
+    backoff: int,
+    headroom: float | None,
+) -> None:
+    """The settings that shorten paths on the paper's bar maps (holding back from
+    targets another agent is nearer to within a wider radius, searching again
+    sooner): complete, nobody lost, no collision, the battery above the reserve, with
+    and without a battery limit."""
+    energy = 0.0 if headroom is None else _energy_for(grid, headroom)
+    mission = make_mission(grid, agents, energy)
+    settings_ = planner_settings(mission, hold_radius=hold, held_backoff_max=backoff)
+    run_checked(mission, settings_)
+
+
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(grid=maps, agents=st.integers(1, 6), seed=st.integers(0, 2**31))
 def test_the_planner_never_sees_the_truth(grid: GridMap, agents: int, seed: int) -> None:
