@@ -147,7 +147,8 @@ class Agent:
         self.id = spec.sysid
         self.link = link
         self.pilot = pilot
-        pilot.known_free = planner.coordinator.belief.is_free  # a car lines up clear of walls
+        # A car lining up backs only into cells clear of walls and of other vehicles.
+        pilot.may_enter = lambda cell: planner.clear_for(spec.sysid, cell)
         self.planner = planner
         self.estimator = estimator
         self.view = view

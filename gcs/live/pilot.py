@@ -47,7 +47,7 @@ MIN_UPLOAD_REAL_S = 2.0
 #: A car drives straight to a target at most this far off its nose (degrees); one
 #: further off it lines up for first (``Pilot._line_up``), backing up at most this
 #: many cells. From 1.5 cells back, the way forward to a cell beside it cuts across
-#: the cell diagonal to it behind: where that cell is not known free, it backs up a
+#: the cell diagonal to it behind: where it may not enter that cell, it backs up a
 #: short step only (its turn then stays clear of that cell's corner). The short step
 #: is not the default: on SITL's car, a target that far off its nose was reached
 #: (inside WP_RADIUS) 2 m from the centre, move after move.
@@ -155,9 +155,10 @@ class Pilot:
         self._reached_reports = 0
         #: Driving backwards (MAV_CMD_DO_SET_REVERSE) for the move under way.
         self._reversing = False
-        #: Whether a cell is known to be free (the planner's map; set by the agent): a
-        #: car lining up keeps clear of the cells that are not.
-        self.known_free: Callable[[Cell], bool] = lambda _cell: True
+        #: Whether the vehicle may pass through a cell off its way (set by the agent:
+        #: free on the planner's map, no other vehicle on it or bound for it): a car
+        #: lining up backs only into such cells and keeps clear of the others' corners.
+        self.may_enter: Callable[[Cell], bool] = lambda _cell: True
         self._target_heard_at: float | None = None
         self._status_heard_at: float | None = None
         link.router.on("MISSION_ITEM_REACHED", self._on_item_reached)
@@ -475,18 +476,18 @@ class Pilot:
 
     def _room_behind(self, pos: Position, cell: Cell) -> float:
         """How many cells a car may back up to line up for ``cell``, a neighbour beside
-        it: none into a cell not known free, one short step where the cell diagonal to
-        it behind, on the side of ``cell``, is not (a long back-up would cut its
-        corner on the way forward), else ``CAR_BACK_UP_CELLS``."""
+        it: none into a cell it may not enter (``may_enter``), a short step where it
+        may not enter the cell diagonal to it behind, on the side of ``cell`` (a long
+        back-up would cut its corner on the way forward), else ``CAR_BACK_UP_CELLS``."""
         here = self.cell_of(pos)
         side = (cell[0] - here[0], cell[1] - here[1])
         if pos.heading_deg is None or abs(side[0]) + abs(side[1]) != 1:
             return CAR_BACK_UP_CELLS
         ahead = _HEADING_STEPS[round(pos.heading_deg / 90.0) % 4]
         behind = (here[0] - ahead[0], here[1] - ahead[1])
-        if not self.known_free(behind):
+        if not self.may_enter(behind):
             return 0.0
-        if not self.known_free((behind[0] + side[0], behind[1] + side[1])):
+        if not self.may_enter((behind[0] + side[0], behind[1] + side[1])):
             return CAR_TIGHT_BACK_UP_CELLS
         return CAR_BACK_UP_CELLS
 

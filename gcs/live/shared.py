@@ -256,12 +256,21 @@ class SharedPlanner:
     def _claimed_by_other(self, agent: int, cell: Cell) -> bool:
         if cell == self.coordinator.belief.charger:
             return False  # a depot: room for everyone
+        return self._others_on(agent, cell)
+
+    def _others_on(self, agent: int, cell: Cell) -> bool:
         # Lost vehicles count too: nobody knows where exactly between the two they are.
         return any(
             other != agent
             for other, c in (*self._at.items(), *self._heading_for.items())
             if c == cell
         )
+
+    def clear_for(self, agent: int, cell: Cell) -> bool:
+        """Whether ``agent`` may pass through ``cell`` off its planned way (a car backing
+        up to line up): free on the planner's map, and no other vehicle on it or bound
+        for it (the charger included)."""
+        return self.coordinator.belief.is_free(cell) and not self._others_on(agent, cell)
 
     async def update_battery(self, agent: int, battery_pct: float) -> None:
         async with self._lock:

@@ -169,7 +169,7 @@ class LogSettings:
 
     chunk_size: int = 1024 * 1024
     #: An offline run's steps gathered in one ``/fleet/states`` message; each vehicle's
-    #: pose and fix are written at the last of them.
+    #: pose, fix and battery state are written at the last of them.
     steps_per_message: int = 25
     flush_s: float = 1.0
     scene_period_s: float = 5.0
@@ -517,7 +517,7 @@ class McapMissionLog:
             last = cell
         if last is not None:
             self._track_point(vehicle, *centre(last))
-            if move is not None and move != vehicle.last_move:
+            if move is not None:
                 vehicle.heading_deg = move_heading((0, 0), move) or vehicle.heading_deg
         vehicle.last_cell, vehicle.last_move = last, move
 

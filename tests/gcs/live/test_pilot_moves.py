@@ -19,12 +19,14 @@ import pytest
 
 from core.cells import Cell
 from core.clocks import ScaledClock
-from gcs.live.pilot import MoveFailed, Pilot
+from core.geo import GeoFrame
+from gcs.live.pilot import CAR_BACK_UP_CELLS, CAR_TIGHT_BACK_UP_CELLS, MoveFailed, Pilot
 from gcs.mission import Mission
 from sitl_mock.drive import DriveSettings, Steering
 from sitl_mock.modes import Behaviour
 from tests.vehicles.test_link_vs_mock import BODY_S, SPEEDUP, UDP, Pair, linked, mission  # noqa: F401
 from vehicles.modes import VehicleKind
+from vehicles.telemetry import Position
 
 pytestmark = pytest.mark.timeout(40)
 
@@ -161,3 +163,40 @@ async def test_the_safe_state_of_a_rover_is_stopped_and_disarmed(
         assert pair.truth.behaviour is Behaviour.HOLD
         assert not pair.truth.armed
         assert pair.truth.drive is not None and pair.truth.drive.speed_m_s < 0.2
+
+
+class _Router:
+    def on(self, _name: str, _handler: Callable[[Any], None]) -> None:
+        pass
+
+
+class _Link:
+    router = _Router()
+
+
+#: A car at the centre of cell (4, 3), nose north (heading 0), south (180) or east (90).
+@pytest.mark.parametrize(
+    ("heading", "target", "walls", "cells"),
+    [
+        (0.0, (4, 4), set(), CAR_BACK_UP_CELLS),  # room all round: the long back-up
+        (0.0, (4, 4), {(5, 4)}, CAR_TIGHT_BACK_UP_CELLS),  # a post diagonal behind
+        (0.0, (4, 2), {(5, 4)}, CAR_BACK_UP_CELLS),  # the post on the other side
+        (0.0, (4, 4), {(5, 3)}, 0.0),  # a wall right behind: no back-up
+        (180.0, (4, 2), {(3, 2)}, CAR_TIGHT_BACK_UP_CELLS),  # nose south: behind is north
+        (90.0, (3, 3), {(3, 2)}, CAR_TIGHT_BACK_UP_CELLS),  # nose east: behind is west
+        (0.0, (2, 3), {(5, 3)}, CAR_BACK_UP_CELLS),  # not a cell beside it: as before
+    ],
+)
+def test_a_car_backs_up_only_where_it_may_and_short_next_to_a_wall(
+    heading: float, target: Cell, walls: set[Cell], cells: float
+) -> None:
+    """From 1.5 cells back, a car's way forward to the cell beside it cuts across the
+    cell diagonal to it behind: where it may not enter that cell (a wall, another
+    vehicle) it backs up a short step only, and never into a cell it may not enter
+    (a car in a pocket of posts drove into one at every try and was given up)."""
+    geo = GeoFrame(47.0, 8.0, 400.0, 2.0)
+    pilot = Pilot(_Link(), VehicleKind.ROVER, geo, ScaledClock(1.0), 1.0, car=True)  # type: ignore[arg-type]
+    pilot.may_enter = lambda cell: cell not in walls
+    lat, lon = geo.cell_centre((4, 3))
+    pos = Position(lat, lon, 400.0, 0.0, heading, 0.0, 0.0, 0.0, 0)
+    assert pilot._room_behind(pos, target) == cells
