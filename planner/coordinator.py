@@ -51,7 +51,6 @@ from planner.agent import (
 from planner.belief import UNREACHED, MapBelief
 from planner.give_way import GiveWay
 from planner.prm import Roadmap
-from planner.regions import RegionClaims
 from planner.settings import AgentSpec, PathPlannerKind, PlannerSettings
 from planner.staying_alive import EPS, StayingAlive
 from planner.sweep import Sweep
@@ -116,8 +115,6 @@ class Coordinator:
         self._give_way = GiveWay(
             belief=belief, settings=settings, agents=agents, traffic=traffic, alive=alive
         )
-        size = settings.region_claims
-        regions = RegionClaims(belief, agents, size) if size else None
         self._sweep = Sweep(belief=belief, settings=settings, occupant=traffic.occupant, team=team)
         self._targets = Targets(
             belief=belief,
@@ -125,7 +122,7 @@ class Coordinator:
             stacks=self.stacks,
             traffic=traffic,
             alive=alive,
-            finders=Finders(self._search, team, self._roadmap, regions),
+            finders=Finders(self._search, team, self._roadmap),
             events=events,
         )
 

@@ -73,13 +73,11 @@ _Found = tuple[int, Sequence[int]] | _Held | None
 
 class Finders(NamedTuple):
     """How a blocked agent's target is found: the target search, ranking it against
-    the ``team``, or the ``roadmap`` (the paper's way) when there is one; with
-    ``regions``, leaving the other agents' regions to them (``region_claims``)."""
+    the ``team``, or the ``roadmap`` (the paper's way) when there is one."""
 
     search: TargetSearch
     team: Team
     roadmap: Roadmap | None
-    regions: RegionClaims | None = None
 
 
 class Targets:
@@ -101,7 +99,10 @@ class Targets:
         self._stacks = stacks
         self._traffic = traffic
         self._alive = alive
-        self._search, self._team, self._roadmap, self._regions = finders
+        self._search, self._team, self._roadmap = finders
+        #: With ``region_claims``: the other agents' regions, left to them first.
+        size = settings.region_claims
+        self._regions = RegionClaims(belief, traffic.fleet, size) if size else None
         self._claims = traffic.claims
         self._events = events
         self._tiers = _TIERS[settings.target_policy]
