@@ -307,7 +307,7 @@ class Targets:
         if self._regions is not None:
             held = self._regions.held_by_others(a, self._claims, previous)
             if held.size:
-                excluded = claimed + held.tolist()
+                excluded = np.concatenate((np.array(claimed, dtype=np.int64), held))
                 request = SearchRequest(a.index, energy, others, hold, excluded, pool, heading)
                 found = self._search.run(request, a.search_memory)
         if found is None:
