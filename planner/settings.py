@@ -108,6 +108,11 @@ class PlannerSettings:
     #: them, chasing them only walks beside it) and take the nearest other one,
     #: or wait when there is none. 0 takes the nearest target even then.
     hold_radius: int = 5
+    #: Divide a crowd between the parts of the map: N > 0 cuts it into regions of
+    #: N cells a side, and an agent looking for a target leaves the regions other
+    #: agents sweep in or head for to them, unless nothing else is left
+    #: (``planner.regions``). 0: off.
+    region_claims: int = 0
     #: Longest pause, in decisions, before a held-back agent searches again
     #: (0: search at every decision).
     held_backoff_max: int = 8
@@ -163,5 +168,7 @@ class PlannerSettings:
             raise ValueError("far_transit_recheck must not be negative")
         if not 0 <= self.top_up_ratio <= 1:
             raise ValueError("top_up_ratio must be in [0, 1]")
+        if self.region_claims < 0:
+            raise ValueError("region_claims must not be negative")
         if self.launch_interval < 0:
             raise ValueError("launch_interval must not be negative")

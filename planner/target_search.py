@@ -67,7 +67,7 @@ class SearchRequest(NamedTuple):
     energy: Energy
     others: tuple[np.ndarray, np.ndarray]
     hold: int
-    excluded: Sequence[int] = ()
+    excluded: Sequence[int] | np.ndarray = ()
     pool: Iterable[int] | None = None
     hint: Hint | None = None
 

@@ -29,6 +29,7 @@ from planner.agent import (
 )
 from planner.belief import MapBelief
 from planner.prm import Roadmap
+from planner.regions import RegionClaims
 from planner.settings import BtpChoice, PlannerSettings, TargetPolicy
 from planner.staying_alive import EPS as _EPS
 from planner.staying_alive import StayingAlive
@@ -99,6 +100,9 @@ class Targets:
         self._traffic = traffic
         self._alive = alive
         self._search, self._team, self._roadmap = finders
+        #: With ``region_claims``: the other agents' regions, left to them first.
+        size = settings.region_claims
+        self._regions = RegionClaims(belief, traffic.fleet, size) if size else None
         self._claims = traffic.claims
         self._events = events
         self._tiers = _TIERS[settings.target_policy]
@@ -133,7 +137,9 @@ class Targets:
                     continue
                 any_candidate = True
             elif self._roadmap is None:
-                found = self._nearest_affordable(a, None if pool is uncovered else pool, hint)
+                found = self._nearest_affordable(
+                    a, None if pool is uncovered else pool, hint, previous
+                )
                 if found is None:
                     any_candidate = any_candidate or self._any_in_range(pool)
                     continue
@@ -271,6 +277,7 @@ class Targets:
         a: AgentRecord,
         pool: Iterable[int] | None,
         hint: Hint | None = None,
+        previous: int | None = None,
     ) -> tuple[int, Sequence[int]] | _Held | None:
         """The closest target of ``pool`` (None: every uncovered cell) that the agent
         can afford, preferring those no other working agent is closer to (they are
@@ -283,6 +290,10 @@ class Targets:
         ``HELD`` says that all of them are. One compiled search ranks them all
         (or confirms ``hint``: the target on the way to, the way there, and
         when it was last known to be a shortest way).
+
+        With ``regions``, the cells of the regions other agents own are left to
+        them first (the agent was heading for ``previous``); only when no other
+        candidate is affordable are they searched too.
         """
         spread = self.settings.spread
         hold = self.settings.hold_radius if spread else 0
@@ -291,8 +302,17 @@ class Targets:
         energy = Energy(a.battery_pct, self._move_cost(a), floor, best_cost, self._range_budget_pct)
         others = self._team.others(a.slot) if spread else _NOBODY
         heading = hint if pool is None else None
-        request = SearchRequest(a.index, energy, others, hold, list(self._claims), pool, heading)
-        found = self._search.run(request, a.search_memory)
+        claimed = list(self._claims)
+        found = None
+        if self._regions is not None:
+            held = self._regions.held_by_others(a, self._claims, previous)
+            if held.size:
+                excluded = np.concatenate((np.array(claimed, dtype=np.int64), held))
+                request = SearchRequest(a.index, energy, others, hold, excluded, pool, heading)
+                found = self._search.run(request, a.search_memory)
+        if found is None:
+            request = SearchRequest(a.index, energy, others, hold, claimed, pool, heading)
+            found = self._search.run(request, a.search_memory)
         if found is None:
             return None
         level, goal, path = found

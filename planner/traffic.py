@@ -86,6 +86,11 @@ class Traffic:
         #: so that ``_kept_waiting_for`` need not look around at every move.
         self._held_up: set[int] = set()
 
+    @property
+    def fleet(self) -> Fleet:
+        """Every agent's record, by id (read by ``planner.regions``)."""
+        return self._agents
+
     # -- reservations and claims ------------------------------------------------
 
     def occupy(self, index: int, agent: int) -> None:

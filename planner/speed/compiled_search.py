@@ -209,7 +209,7 @@ class CompiledSearch(Confirmations):
         start: int,
         hint: tuple[int, Sequence[int], tuple[int, int] | None],
         energy: EnergyTerms,
-        excluded: Sequence[int],
+        excluded: Sequence[int] | np.ndarray,
         settled: SettledTarget,
     ) -> bool:
         """Is the hint's target, by the hint's way, what the search would return,
@@ -245,7 +245,7 @@ class CompiledSearch(Confirmations):
         start: int,
         found: Found | None,
         energy: EnergyTerms,
-        excluded: Sequence[int],
+        excluded: Sequence[int] | np.ndarray,
     ) -> None:
         """Keep what the check just proved (while no other agent works)."""
         if settled.goal >= 0:
