@@ -181,6 +181,11 @@ class Mission:
         o = self.origin
         return GeoFrame(o.lat_deg, o.lon_deg, o.alt_m, self.cell_size_m)
 
+    @property
+    def reachable_cells(self) -> int:
+        """The free cells reachable from the charger: what complete coverage covers."""
+        return int(self.map.reachable(self.charger).sum())
+
     def with_agents(self, count: int) -> Mission:
         """The same mission with ``count`` vehicles (the ``--agents N`` override).
 

@@ -73,8 +73,9 @@ def _fly(run: StationRun, answer: Connection) -> None:
     )
     sim = None if run.faults is None else MockFleetRehearsal(mission, run.faults, seed=run.seed)
     run.out.mkdir(parents=True, exist_ok=True)
-    free_cells = int(mission.map.reachable(mission.charger).sum())
-    log = McapMissionLog.for_mission(mission, run.out / LOG_NAME, free_cells=free_cells)
+    log = McapMissionLog.for_mission(
+        mission, run.out / LOG_NAME, free_cells=mission.reachable_cells
+    )
     try:
         result = asyncio.run(run_live(mission, options, log, _quiet, asyncio.Event(), sim=sim))
     except MissionRefused as exc:

@@ -90,7 +90,7 @@ def _run_case(case: PlannerCase, out: Connection, folder: Path) -> None:
 
     log = None
     if case.log:
-        free = int(mission.map.reachable(mission.charger).sum())
+        free = mission.reachable_cells
         log = McapMissionLog.for_mission(mission, folder / LOG_FILE, free_cells=free)
     started = time.perf_counter()
     result = simulate(mission, SimOptions(settings=settings), progress=report, log=log)

@@ -100,7 +100,7 @@ def open_log(mission: Mission, out: Path | None, sinks: Sequence[LogSink] = ()) 
         return McapMissionLog.for_mission(
             mission,
             None if out is None else out / LOG_NAME,
-            free_cells=int(mission.map.reachable(mission.charger).sum()),
+            free_cells=mission.reachable_cells,
             sinks=sinks,
         )
     except OSError as exc:

@@ -110,23 +110,26 @@ def test_the_battery_falling_without_a_move_sends_the_agent_home() -> None:
     assert c.mode(1) == AgentMode.RETURN and action.to == (1, 5)
 
 
+#: Rooms joined by one-cell doors, the charger in the lower hall.
+ROOMS = [
+    "###########",
+    "#....#....#",
+    "#....#....#",
+    "#.........#",
+    "#....#....#",
+    "####.###.##",
+    "#.........#",
+    "#....C....#",
+    "###########",
+]
+
+
 def test_no_two_agents_share_a_cell_or_swap_cells() -> None:
     """A fleet sweeping rooms joined by one-cell doors, one move after another: no
     agent ever heads for a cell another stands on, nor for one another has left in
     the same round (so none trades places with another, or follows it along the
     same edge in one step). The charger, a depot with room for all, aside."""
-    rows = [
-        "###########",
-        "#....#....#",
-        "#....#....#",
-        "#.........#",
-        "#....#....#",
-        "####.###.##",
-        "#.........#",
-        "#....C....#",
-        "###########",
-    ]
-    walls, charger = _walls(rows)
+    walls, charger = _walls(ROOMS)
     specs = [AgentSpec(i, 0.0) for i in range(1, 6)]
     c = Coordinator(walls.shape, charger, specs, PlannerSettings())
     at = {s.id: charger for s in specs}
@@ -181,18 +184,7 @@ def test_with_a_launch_interval_agents_leave_the_charger_one_after_another() -> 
 def test_every_reading_of_the_paper_covers_the_rooms() -> None:
     """The other readings of the paper (``BmRule.FORWARD``, ``BtpChoice``,
     ``net_when_alone``, ``launch_interval``) still cover every cell."""
-    rows = [
-        "###########",
-        "#....#....#",
-        "#....#....#",
-        "#.........#",
-        "#....#....#",
-        "####.###.##",
-        "#.........#",
-        "#....C....#",
-        "###########",
-    ]
-    walls, charger = _walls(rows)
+    walls, charger = _walls(ROOMS)
     paper = PlannerSettings(
         bm_rule=BmRule.PAPER, target_policy=TargetPolicy.OWN_FIRST, spread=False
     )
