@@ -457,8 +457,8 @@ class Pilot:
         off = self.turn_to_deg(pos, lat, lon)
         if off <= CAR_AHEAD_DEG:
             return
-        await self._set_reverse(True)
         if off >= 180.0 - CAR_AHEAD_DEG:
+            await self._set_reverse(True)
             return  # straight back to it
         distance = self.distance_m(pos, lat, lon)
         ahead = distance * math.cos(math.radians(off))
@@ -466,7 +466,8 @@ class Pilot:
         back = beside / math.tan(math.radians(CAR_AHEAD_DEG)) - ahead
         back = min(back, self._room_behind(pos, cell) * self.geo.cell_size_m)
         if back <= 0.0:
-            return  # nowhere to back up to: it turns as it can
+            return  # nowhere to back up to: forwards, turning as it can
+        await self._set_reverse(True)
         north, east = self.geo.geo_to_local(pos.lat_deg, pos.lon_deg)
         h = math.radians(pos.heading_deg)
         to = self.geo.local_to_geo(north - back * math.cos(h), east - back * math.sin(h))

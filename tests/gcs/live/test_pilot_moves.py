@@ -16,6 +16,7 @@ from collections.abc import Callable
 from typing import Any
 
 import pytest
+from pymavlink.dialects.v20 import common as mavlink
 
 from core.cells import Cell
 from core.clocks import ScaledClock
@@ -200,3 +201,33 @@ def test_a_car_backs_up_only_where_it_may_and_short_next_to_a_wall(
     lat, lon = geo.cell_centre((4, 3))
     pos = Position(lat, lon, 400.0, 0.0, heading, 0.0, 0.0, 0.0, 0)
     assert pilot._room_behind(pos, target) == cells
+
+
+class _Telemetry:
+    position: Position | None = None
+
+
+class _CommandLink(_Link):
+    """Records the commands sent; knows only a position."""
+
+    def __init__(self) -> None:
+        self.telemetry = _Telemetry()
+        self.commands: list[tuple[int, tuple[float, ...]]] = []
+
+    async def command_long(self, command: int, *params: float) -> None:
+        self.commands.append((command, params))
+
+
+async def test_a_car_with_a_wall_behind_it_turns_forwards() -> None:
+    """Nowhere to back up to: the car is left driving forwards (never in reverse
+    towards a cell beside it)."""
+    geo = GeoFrame(47.0, 8.0, 400.0, 2.0)
+    link = _CommandLink()
+    pilot = Pilot(link, VehicleKind.ROVER, geo, ScaledClock(1.0), 1.0, car=True)  # type: ignore[arg-type]
+    pilot.may_enter = lambda cell: cell != (5, 3)  # the cell behind a car facing north
+    lat, lon = geo.cell_centre((4, 3))
+    link.telemetry.position = Position(lat, lon, 400.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0)
+    await pilot._line_up(*geo.cell_centre((4, 4)), (4, 4))
+    assert not pilot._reversing
+    reverse = mavlink.MAV_CMD_DO_SET_REVERSE
+    assert [params for command, params in link.commands if command == reverse] == []
