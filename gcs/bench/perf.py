@@ -347,6 +347,7 @@ def run_perf(args: argparse.Namespace) -> int:
     )
     console.print(f"planner: {planner_build()}")
     planner_rows: list[dict[str, Any]] = []
+    logged: list[dict[str, Any]] = []
     live_rows: list[dict[str, Any]] = []
     if not args.skip_planner:
         planner_rows = _planner_rows(cases, args.case_limit, progress)
@@ -364,7 +365,7 @@ def run_perf(args: argparse.Namespace) -> int:
         if pairs:
             figures["web"] = pairs
             console.print(web_table(pairs))
-    found = goals(planner_rows, live_rows) + log_goals(log_pairs(planner_rows), GOAL_SIDE)
+    found = goals(planner_rows, live_rows) + log_goals(logged, GOAL_SIDE)
     if found:
         figures["goals"] = [asdict(goal) for goal in found]
         console.print(goals_table(found))
