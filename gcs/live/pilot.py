@@ -718,6 +718,12 @@ class Pilot:
         else:
             tries = self.settings.park_attempts
             for attempt in range(tries + 1):
+                if attempt:
+                    # Back onto the pad in GUIDED, which stops there; held only once
+                    # stopped, since HOLD at speed lets a rover roll off again.
+                    await self.underway()
+                    await self.goto(pad, self.park_tolerance_m)
+                    await self.wait_position(self._parked, wait_s, "stop")
                 if self.flight_mode != FlightMode.HOLD:
                     await self.set_mode(FlightMode.HOLD)
                 pos = await self.wait_position(self._parked, wait_s, "stop")
@@ -729,8 +735,6 @@ class Pilot:
                         f"did not stop on the pad {pad} in {tries} tries "
                         f"({off:.2f} m off its centre)"
                     )
-                await self.underway()  # GUIDED: back onto the pad, arriving stopped
-                await self.goto(pad, self.park_tolerance_m)
         await self._disarm(wait_s)
 
     async def _land(self, wait_s: float) -> None:
