@@ -24,9 +24,16 @@ MISSION_SETTINGS = frozenset({"cell_size_m", "reserve_pct", "seed"})
 
 
 def positive_numbers(text: str, what: str, kind: type = int) -> list[Any]:
-    """A comma-separated option of positive numbers, e.g. ``--sizes 100,300``."""
+    """A comma-separated option of positive numbers, e.g. ``--sizes 100,300``; whole
+    numbers may be given as ranges too, e.g. ``--seeds 1-37``."""
     try:
-        values = [kind(x) for x in text.split(",") if x.strip()]
+        values: list[Any] = []
+        for part in (x.strip() for x in text.split(",")):
+            if kind is int and "-" in part[1:]:
+                first, last = (int(end) for end in part.split("-", 1))
+                values += range(first, last + 1)
+            elif part:
+                values.append(kind(part))
     except ValueError:
         raise UsageError(f"--{what}: expected comma-separated numbers, got {text!r}") from None
     if not values or any(v <= 0 for v in values):

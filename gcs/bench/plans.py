@@ -32,11 +32,25 @@ from gcs.generated_missions import MapMaker, case_mission
 from gcs.offline.simulate import SimOptions, simulate
 from gcs.planning import planner_settings
 from sitl_mock import mapgen
+from sitl_mock.gridmap import GridMap
+
+#: The paper's bar maps (Table 2): this many bars on a square of this side.
+PAPER_BARS, PAPER_SIDE = 13, 30
+
+
+def paper_bars(height: int, width: int, seed: int) -> GridMap:
+    """Bars of 4 to 9 cells as the paper's 30x30 benchmark places them, as many per
+    area on a map of any size (seed 9 at 30x30 is ``missions/bob30.yaml``'s map)."""
+    count = round(PAPER_BARS * height * width / PAPER_SIDE**2)
+    return mapgen.bars(height, width, count=count, seed=seed)
+
 
 GENERATORS: dict[str, MapMaker] = {
     "rooms": mapgen.rooms,
     "caves": mapgen.caves,
     "open": mapgen.open_field,
+    "bars": paper_bars,
+    "combs": mapgen.branching,
 }
 
 
@@ -46,6 +60,8 @@ class PlanCase:
     size: int
     agents: int
     seed: int
+    #: False: no battery limit (the paper's Table 2); True: as ``gcs bench perf``.
+    battery: bool = True
 
 
 # -- the runs --------------------------------------------------------------------------
@@ -55,7 +71,8 @@ def run_case(case: PlanCase, overrides: dict[str, Any]) -> dict[str, Any]:
     """One run: the figures compared, and a digest of every agent's track (equal
     digests: the same plan, cell for cell)."""
     grid = GENERATORS[case.kind](case.size, case.size, case.seed)
-    mission = case_mission(grid, case.agents, f"{case.kind}{case.size}-{case.seed}")
+    name = f"{case.kind}{case.size}-{case.seed}"
+    mission = case_mission(grid, case.agents, name, battery=case.battery)
     settings = planner_settings(mission, 0, **overrides)
     result = simulate(mission, SimOptions(settings=settings))
     tracks = hashlib.sha256(repr([a.track for a in result.agents]).encode()).hexdigest()
@@ -230,7 +247,7 @@ def _cases(args: argparse.Namespace) -> list[PlanCase]:
     if min(sizes) < mapgen.MIN_SIZE:
         raise UsageError(f"--sizes: maps are at least {mapgen.MIN_SIZE} cells a side")
     return [
-        PlanCase(kind, size, agents, seed)
+        PlanCase(kind, size, agents, seed, battery=args.battery == "limited")
         for kind in kinds
         for size in sizes
         for agents in positive_numbers(args.agents, "agents")
@@ -274,6 +291,7 @@ def run_plans(args: argparse.Namespace) -> int:
     figures: dict[str, Any] = {
         "machine": platform.platform(),
         "strategies": {label: {k: str(v) for k, v in s.items()} for label, s in strategies.items()},
+        "battery": args.battery,
         "runs": rows,
         "interrupted": interrupted,
     }

@@ -97,7 +97,10 @@ changed by --set, on every map of --kinds x --sizes x --seeds with every fleet o
 --agents, and print each run's path per free cell and its steps, the variant's
 ratios to the base, whether the plan is the same cell for cell, and the geometric
 mean of the ratios per map kind, size and fleet and over all runs. The battery is
-set as in 'gcs bench perf'.
+set as in 'gcs bench perf', or unlimited (--battery none).
+
+The paper's Table 2 and maps of its kind (bob30 is seed 9):
+  gcs bench plans --kinds bars --sizes 30 --agents 4 --seeds 1-37 --battery none
 
 A crowd's plan is chaotic (one different decision early changes everything after
 it), so judge a change on the means of many maps, never on one. The exit status is
@@ -316,10 +319,26 @@ def _sweep_options(p: argparse.ArgumentParser) -> None:
 
 
 def _plans(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--kinds", default="rooms,caves,open", help="map kinds (default: all three)")
+    p.add_argument(
+        "--kinds",
+        default="rooms,caves,open",
+        help="map kinds: rooms, caves, open, bars (the paper's Table 2: 13 bars of 4-9 "
+        "cells per 30x30), combs (corridors branching off a trunk) (default "
+        "rooms,caves,open)",
+    )
     p.add_argument("--sizes", default="100", help="map sides in cells (default 100)")
     p.add_argument("--agents", default="20,50", help="fleet sizes (default 20,50)")
-    p.add_argument("--seeds", default="1,2,3,4", help="map seeds (default 1,2,3,4)")
+    p.add_argument(
+        "--seeds", default="1,2,3,4", help="map seeds, e.g. 1,2,3 or 1-37 (default 1,2,3,4)"
+    )
+    p.add_argument(
+        "--battery",
+        choices=("limited", "none"),
+        default="limited",
+        help="limited: a round trip to the farthest cell costs two thirds of the usable "
+        "charge, as in 'gcs bench perf'; none: no battery limit, as the paper's Table 2 "
+        "(default limited)",
+    )
     p.add_argument(
         "--set",
         dest="changes",

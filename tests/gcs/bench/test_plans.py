@@ -9,8 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from gcs.bench.plans import summarise
+from gcs.bench.plans import paper_bars, summarise
 from gcs.cli import main
+from sitl_mock.maps import load_map
 from tests.processes import ctrl_c, gcs_process
 
 pytestmark = pytest.mark.timeout(120)
@@ -151,3 +152,26 @@ def test_means_are_taken_per_group_and_over_all() -> None:
     assert summary["open 9x9, 2 agents"]["same_plans"] == 1
     assert summary["all"]["path_ratio"] == pytest.approx(4.0 ** (1 / 3))
     assert summary["all"]["runs"] == 3
+
+
+def test_the_papers_bar_maps_run_without_a_battery_limit(tmp_path: Path) -> None:
+    """``--kinds bars --battery none`` is the paper's Table 2: seed 9 at 30x30 is bob30's
+    map, and with no battery limit nobody charges; ``--seeds`` takes a range."""
+    bob30 = load_map(Path(__file__).parents[3] / "missions" / "maps" / "bob30.txt")
+    bars = paper_bars(30, 30, 9)
+    assert (bars.obstacle == bob30.obstacle).all() and bars.charger == bob30.charger
+    out = tmp_path / "plans.json"
+    args = ["bench", "plans", "--kinds", "bars,combs", "--sizes", "30", "--agents", "4"]
+    args += ["--seeds", "8-9", "--battery", "none", "--jobs", "1", "--json", str(out)]
+    assert main(args) == 0
+    figures = json.loads(out.read_text())
+    rows = figures["runs"]["base"]
+    assert figures["battery"] == "none"
+    assert [(r["kind"], r["seed"]) for r in rows] == [
+        ("bars", 8),
+        ("bars", 9),
+        ("combs", 8),
+        ("combs", 9),
+    ]
+    assert all(r["complete"] and r["lost"] == 0 and r["charges"] == 0 for r in rows)
+    assert main([*args[:-2], "--seeds", "9-x"]) != 0
