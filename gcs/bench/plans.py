@@ -50,7 +50,7 @@ GENERATORS: dict[str, MapMaker] = {
     "caves": mapgen.caves,
     "open": mapgen.open_field,
     "bars": paper_bars,
-    "combs": mapgen.branching,
+    "branching": mapgen.branching,
 }
 
 

@@ -323,7 +323,7 @@ def _plans(p: argparse.ArgumentParser) -> None:
         "--kinds",
         default="rooms,caves,open",
         help="map kinds: rooms, caves, open, bars (the paper's Table 2: 13 bars of 4-9 "
-        "cells per 30x30), combs (corridors branching off a trunk) (default "
+        "cells per 30x30), branching (combs of corridors off a trunk) (default "
         "rooms,caves,open)",
     )
     p.add_argument("--sizes", default="100", help="map sides in cells (default 100)")

@@ -161,7 +161,7 @@ def test_the_papers_bar_maps_run_without_a_battery_limit(tmp_path: Path) -> None
     bars = paper_bars(30, 30, 9)
     assert (bars.obstacle == bob30.obstacle).all() and bars.charger == bob30.charger
     out = tmp_path / "plans.json"
-    args = ["bench", "plans", "--kinds", "bars,combs", "--sizes", "30", "--agents", "4"]
+    args = ["bench", "plans", "--kinds", "bars,branching", "--sizes", "30", "--agents", "4"]
     args += ["--seeds", "8-9", "--battery", "none", "--jobs", "1", "--json", str(out)]
     assert main(args) == 0
     figures = json.loads(out.read_text())
@@ -170,8 +170,8 @@ def test_the_papers_bar_maps_run_without_a_battery_limit(tmp_path: Path) -> None
     assert [(r["kind"], r["seed"]) for r in rows] == [
         ("bars", 8),
         ("bars", 9),
-        ("combs", 8),
-        ("combs", 9),
+        ("branching", 8),
+        ("branching", 9),
     ]
     assert all(r["complete"] and r["lost"] == 0 and r["charges"] == 0 for r in rows)
     assert main([*args[:-2], "--seeds", "9-x"]) != 0
