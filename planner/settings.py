@@ -108,6 +108,13 @@ class PlannerSettings:
     #: them, chasing them only walks beside it) and take the nearest other one,
     #: or wait when there is none. 0 takes the nearest target even then.
     hold_radius: int = 5
+    #: With ``hold_radius``, when the nearest target is nearer to another working
+    #: agent but beyond ``hold_radius`` of it: wait too if that agent, drawing
+    #: nearer to it by this many cells per move of the way there, would be within
+    #: ``hold_radius`` of it first (it would sweep it before this agent arrived).
+    #: In a crowd most walks to such targets end held back on the way
+    #: (docs/performance.md); 0: take them.
+    rival_pace: float = 0.0
     #: Divide a crowd between the parts of the map: N > 0 cuts it into regions of
     #: N cells a side, and an agent looking for a target leaves the regions other
     #: agents sweep in or head for to them, unless nothing else is left
@@ -168,6 +175,8 @@ class PlannerSettings:
             raise ValueError("far_transit_recheck must not be negative")
         if not 0 <= self.top_up_ratio <= 1:
             raise ValueError("top_up_ratio must be in [0, 1]")
+        if self.rival_pace < 0:
+            raise ValueError("rival_pace must not be negative")
         if self.region_claims < 0:
             raise ValueError("region_claims must not be negative")
         if self.launch_interval < 0:

@@ -316,6 +316,20 @@ class Targets:
         if found is None:
             return None
         level, goal, path = found
-        if level == _Rank.CONTESTED and hold:
+        if hold and (level == _Rank.CONTESTED or self._rival_first(level, goal, path, others)):
             return HELD
         return goal, path
+
+    def _rival_first(
+        self, level: int, goal: int, path: Sequence[int], others: tuple[np.ndarray, np.ndarray]
+    ) -> bool:
+        """Whether a target nearer to another working agent (``BEYOND_HOLD``) is one
+        that agent, drawing nearer at ``rival_pace``, would be about to sweep (within
+        ``hold_radius``: Manhattan, as the ranks) before this agent walked ``path``."""
+        pace = self.settings.rival_pace
+        rows, cols = others
+        if level != _Rank.BEYOND_HOLD or pace <= 0.0 or rows.size == 0:
+            return False
+        r, c = self.belief.cell(goal)
+        nearest = int(np.min(np.abs(rows - r) + np.abs(cols - c)))
+        return nearest - self.settings.hold_radius < pace * len(path)

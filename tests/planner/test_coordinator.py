@@ -69,6 +69,35 @@ def test_the_sweep_goes_first_into_the_tightest_uncovered_cell() -> None:
 CORRIDOR = ["#" * 22, "#C" + "." * 19 + "#", "#" * 22]
 
 
+#: A corridor one cell wide and 40 long, the charger at its western end.
+LONG_CORRIDOR = ["#" * 42, "#C" + "." * 39 + "#", "#" * 42]
+
+
+def _one_sweeping_ahead(pace: float) -> Coordinator:
+    """Agent 2 on its way to the corridor's uncovered east end (8 cells from it),
+    agent 1 on the charger (29 cells from it) with nothing nearer to it."""
+    settings = PlannerSettings(rival_pace=pace)
+    c = _known(LONG_CORRIDOR, [AgentSpec(1, 0.0), AgentSpec(2, 0.0)], settings)
+    _cover_all_but(c, LONG_CORRIDOR, {(1, col) for col in range(30, 41)})
+    walls, _ = _walls(LONG_CORRIDOR)
+    c.observe(2, (1, 22), _readings(walls, (1, 22)), 100.0)
+    c.decide(2)
+    assert c.mode(2) == AgentMode.TRANSIT and c.planned_path(2)[-1] == (1, 30)
+    return c
+
+
+def test_an_agent_leaves_a_target_to_one_that_would_reach_it_first() -> None:
+    """Every target left is nearer to agent 2, but beyond ``hold_radius`` (5) of it: by
+    default agent 1 sets out for one; with ``rival_pace`` 0.5 agent 2, drawing nearer
+    by half a cell per move, would be within 5 cells of it long before agent 1 walked
+    its 30 moves, so agent 1 waits; at 0.1 it would not (9 - 5 >= 0.1 x 30)."""
+    for pace, sets_out in ((0.0, True), (0.1, True), (0.5, False)):
+        c = _one_sweeping_ahead(pace)
+        action = c.decide(1)
+        assert (c.mode(1) == AgentMode.TRANSIT) == sets_out, pace
+        assert (action.to == (1, 2)) == sets_out, pace
+
+
 def test_a_blocked_agent_takes_the_nearest_target_and_claims_it() -> None:
     c = _known(CORRIDOR, [AgentSpec(1, 0.0), AgentSpec(2, 0.0)])
     _cover_all_but(c, CORRIDOR, {(1, 8), (1, 20)})

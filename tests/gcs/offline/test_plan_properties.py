@@ -116,12 +116,14 @@ def test_every_strategy_keeps_the_invariants(
     run_checked(mission, settings_)
 
 
-@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     grid=small_maps,
     agents=st.integers(1, 6),
     hold=st.sampled_from([5, 12, 16, 24]),
     backoff=st.sampled_from([2, 4, 8]),
+    pace=st.sampled_from([0.0, 0.05, 0.2, 1.0]),
+    regions=st.sampled_from([0, 8]),
     headroom=st.sampled_from([None, 0.1, 0.5]),
 )
 def test_the_short_path_variants_keep_the_invariants(
@@ -129,15 +131,23 @@ def test_the_short_path_variants_keep_the_invariants(
     agents: int,
     hold: int,
     backoff: int,
+    pace: float,
+    regions: int,
     headroom: float | None,
 ) -> None:
-    """The settings that shorten paths on the paper's bar maps (holding back from
-    targets another agent is nearer to within a wider radius, searching again
-    sooner): complete, nobody lost, no collision, the battery above the reserve, with
-    and without a battery limit."""
+    """The settings that shorten paths (holding back from targets another agent is
+    nearer to within a wider radius, or that it would reach first at ``rival_pace``,
+    searching again sooner, region claims): complete, nobody lost, no collision, the
+    battery above the reserve, with and without a battery limit."""
     energy = 0.0 if headroom is None else _energy_for(grid, headroom)
     mission = make_mission(grid, agents, energy)
-    settings_ = planner_settings(mission, hold_radius=hold, held_backoff_max=backoff)
+    settings_ = planner_settings(
+        mission,
+        hold_radius=hold,
+        held_backoff_max=backoff,
+        rival_pace=pace,
+        region_claims=regions,
+    )
     run_checked(mission, settings_)
 
 
