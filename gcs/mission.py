@@ -158,6 +158,10 @@ class PlannerSpec:
     #: Charge on the way when the round trip costs at most this share of the charge
     #: gained (None: the planner's default, PlannerSettings.top_up_ratio).
     top_up_ratio: float | None = None
+    #: Wait rather than set out for a target another vehicle would sweep first, that
+    #: vehicle drawing nearer at this many cells per move (None: the planner's
+    #: default, PlannerSettings.rival_pace; 0: shorter missions, longer paths).
+    rival_pace: float | None = None
     #: When coverage is complete, charge each vehicle to full before it parks (False:
     #: home and park at once; PlannerSettings).
     charge_at_end: bool = False
@@ -261,6 +265,7 @@ _PLANNER_KEYS = (
     "max_iterations",
     "far_transit_recheck",
     "top_up_ratio",
+    "rival_pace",
     "charge_at_end",
 )
 
@@ -517,6 +522,11 @@ class _Loader:
             raise self.fail(
                 "planner.top_up_ratio", f"must be a number in [0, 1] or null, got {_show(top_up)}"
             )
+        pace = section.get("rival_pace")
+        if pace is not None and (not _is_number(pace) or pace < 0):
+            raise self.fail(
+                "planner.rival_pace", f"must be a number >= 0 or null, got {_show(pace)}"
+            )
         return PlannerSpec(
             reserve_pct=float(reserve),
             charge_pct_per_step=None if rate is None else float(rate),
@@ -527,6 +537,7 @@ class _Loader:
             max_iterations=self.optional_count(section, "max_iterations", "planner"),
             far_transit_recheck=self.optional_count(section, "far_transit_recheck", "planner"),
             top_up_ratio=None if top_up is None else float(top_up),
+            rival_pace=None if pace is None else float(pace),
             charge_at_end=self.flag(section, "charge_at_end", "planner", default.charge_at_end),
         )
 

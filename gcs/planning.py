@@ -25,6 +25,8 @@ def planner_settings(mission: Mission, seed: int = 0, **strategy: object) -> Pla
     }
     if spec.top_up_ratio is not None:  # null: the planner's default
         settings["top_up_ratio"] = spec.top_up_ratio
+    if spec.rival_pace is not None:
+        settings["rival_pace"] = spec.rival_pace
     return PlannerSettings(**(settings | strategy))  # type: ignore[arg-type]
 
 

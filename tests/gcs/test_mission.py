@@ -99,6 +99,14 @@ def test_top_up_ratio_null_is_the_planners_default_and_0_the_papers_rule(
     assert planner_settings(mission).top_up_ratio == used
 
 
+@pytest.mark.parametrize(
+    ("given", "used"), [("null", PlannerSettings().rival_pace), ("0", 0.0), ("0.3", 0.3)]
+)
+def test_rival_pace_null_is_the_planners_default(tmp_path: Path, given: str, used: float) -> None:
+    mission = load_mission(write(tmp_path, f"map: m.txt\nplanner: {{rival_pace: {given}}}\n"))
+    assert planner_settings(mission).rival_pace == used
+
+
 def test_gcs_plan_no_top_up_plans_with_the_papers_charging_rule(tmp_path: Path) -> None:
     mission = load_mission(MISSIONS / "scenario3.yaml").with_agents(11)
     papers = simulate(mission, SimOptions(settings=planner_settings(mission, top_up_ratio=0.0)))
@@ -349,6 +357,11 @@ BAD: list[tuple[str, str | None, str]] = [
         "map: m.txt\nplanner: {top_up_ratio: 1.5}\n",
         None,
         "planner.top_up_ratio: must be a number in [0, 1] or null, got 1.5",
+    ),
+    (
+        "map: m.txt\nplanner: {rival_pace: -0.1}\n",
+        None,
+        "planner.rival_pace: must be a number >= 0 or null, got -0.1",
     ),
     (
         "map: m.txt\nplanner: {path_planner: astar}\n",
