@@ -47,9 +47,9 @@ def case_mission(
     """A mission of ``agents`` vehicles on ``grid`` (rovers, every fourth a copter), the
     battery set as the module says, or (``battery=False``) without a battery limit, as
     the paper's Table 2; ``connections`` default to the mission defaults."""
-    probe = _mission(grid, 1, 0.0, name, None)
     if not battery:
         return _mission(grid, agents, 0.0, name, connections)
+    probe = _mission(grid, 1, 0.0, name, None)
     far = int(charger_distances(probe).max())
     energy = (100.0 - RESERVE_PCT) * FARTHEST_TRIP_SHARE / (2 * max(far, 1))
     return _mission(grid, agents, energy, name, connections)

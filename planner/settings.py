@@ -113,8 +113,8 @@ class PlannerSettings:
     #: nearer to it by this many cells per move of the way there, would be within
     #: ``hold_radius`` of it first (it would sweep it before this agent arrived).
     #: In a crowd most walks to such targets ended held back on the way: waiting
-    #: shortens paths (the maze of rooms with 50 agents by 55 %) but lengthens the
-    #: mission where agents outnumber the work (docs/performance.md); 0: take them.
+    #: shortens paths, most in mazes, but lengthens the mission where agents
+    #: outnumber the work (docs/performance.md); 0: take them.
     rival_pace: float = 0.1
     #: Divide a crowd between the parts of the map: N > 0 cuts it into regions of
     #: N cells a side, and an agent looking for a target leaves the regions other
