@@ -275,6 +275,10 @@ class Agent:
         """Carry out an action; returns a follow-up action already decided, or None."""
         if action.kind != ActionKind.CHARGE:
             self._charge_ended()
+        if action.kind == ActionKind.WAIT:
+            self.estimator.pause()  # until it moves or charges again: not per metre
+        else:
+            self.estimator.resume()
         if action.kind == ActionKind.MOVE:
             assert action.to is not None
             mode = self.planner.mode(self.id)
@@ -379,8 +383,9 @@ class Agent:
     async def _track_battery(self) -> None:
         """Feed the energy estimate with each battery update and the distance since, as
         the planner counts it (a cell size per move): the planner budgets every way home
-        in those metres, so whatever a vehicle spends beyond them (a car backing up to
-        line up, a copter hovering while it waits) must be in the rate per metre."""
+        in those metres, so whatever a vehicle spends beyond them on its way (a car
+        backing up to line up) must be in the rate per metre. What it uses while it waits
+        is not (``EnergyEstimator.pause``)."""
         updates = self.link.stream(Topic.BATTERY)
         try:
             async for battery in updates:

@@ -15,7 +15,11 @@ The estimate is deliberately pessimistic:
 * everything is multiplied by a safety margin.
 
 Charging (the remaining percentage going up) starts a new discharge; the
-windows measured so far are kept.
+windows measured so far are kept. What a vehicle uses while it waits (a copter
+hovering while held back, for instance) is left out (``pause``/``resume``): it
+depends on how long the planner holds it, not on the metres it will fly, and
+counted per metre it would send copters home early after every long wait (the
+planner sees the battery fall while it waits and sends it home if need be).
 """
 
 from __future__ import annotations
@@ -69,6 +73,8 @@ class EnergyEstimator:
         # The current discharge, and the current window within it.
         self._discharge_start: tuple[float, float] | None = None  # (odometer, pct)
         self._window_start: tuple[float, float] | None = None
+        #: The remaining charge reported when a wait began (``pause``), else None.
+        self._paused_at: float | None = None
 
     def add(self, moved_m: float, remaining_pct: float) -> None:
         """``moved_m`` metres travelled since the previous sample; ``remaining_pct`` now."""
@@ -80,8 +86,10 @@ class EnergyEstimator:
         if last is None or remaining_pct > last:  # first sample, or charging
             self._discharge_start = (self.odometer_m, remaining_pct)
             self._window_start = (self.odometer_m, remaining_pct)
+            if self._paused_at is not None:
+                self._paused_at = remaining_pct
             return
-        if remaining_pct < last:
+        if remaining_pct < last and self._paused_at is None:
             assert self._window_start is not None
             start_m, start_pct = self._window_start
             if start_pct - remaining_pct >= self.settings.window_pct:
@@ -91,6 +99,28 @@ class EnergyEstimator:
                 # The next window starts where this change was seen, so its ends fall on
                 # changes of the reported value and quantisation hardly matters.
                 self._window_start = (self.odometer_m, remaining_pct)
+
+    def pause(self) -> None:
+        """The vehicle waits: what it uses until ``resume`` is not per metre."""
+        if self._paused_at is None:
+            self._paused_at = self._last_pct
+
+    def resume(self) -> None:
+        """The wait is over: the charge it used comes off the current discharge and
+        window, as if the vehicle had not waited. Reports in whole percent hide up to
+        one percent either way: one less is taken off, so that what was used moving is
+        never taken for waiting (an estimate too low would let a vehicle go too far)."""
+        paused_at, self._paused_at = self._paused_at, None
+        last = self._last_pct
+        if paused_at is None or last is None:
+            return
+        used = paused_at - last - self.settings.resolution_pct
+        if used <= 0.0:
+            return
+        if self._discharge_start is not None:
+            self._discharge_start = (self._discharge_start[0], self._discharge_start[1] - used)
+        if self._window_start is not None:
+            self._window_start = (self._window_start[0], self._window_start[1] - used)
 
     def _bound(self) -> float | None:
         """Upper bound of the rate over the current discharge (None: not enough distance)."""

@@ -278,6 +278,64 @@ def test_noise_and_sag_keep_it_pessimistic() -> None:
     assert est.estimate_pct_per_m >= 0.4
 
 
+def hover(est: EnergyEstimator, true: float, rate_pct_s: float, seconds: float) -> float:
+    """A wait in the air: the charge falls with no metre moved (samples every 0.5 s)."""
+    est.pause()
+    for _ in range(int(seconds / 0.5)):
+        true -= rate_pct_s * 0.5
+        est.add(0.0, math.ceil(true))
+    est.resume()
+    return true
+
+
+@pytest.mark.parametrize("waits", [2, 4, 8])
+def test_waiting_is_not_counted_per_metre_and_the_estimate_stays_an_upper_bound(
+    waits: int,
+) -> None:
+    """A copter held back between sweeps hovers; what it uses then depends on how long it
+    is held, not on the metres it flies. Counted per metre, these waits made copters'
+    estimates 1.5-1.9 times their true rate. The estimate stays above the true rate
+    whatever the quantisation leaves."""
+    moving_rate = 0.35
+    plain, waiting = EnergyEstimator(0.05), EnergyEstimator(0.05)
+    plain.add(0.0, 100.0)
+    waiting.add(0.0, 100.0)
+    drive(plain, moving_rate, 160.0)
+    true = 100.0
+    for leg in range(8):
+        true = drive(waiting, moving_rate, 20.0, start=true)
+        if leg % (8 // waits) == 0:
+            true = hover(waiting, true, 0.05, 40.0)  # 2 % of the battery each time
+    assert true < 100.0 - 160.0 * moving_rate - 2.0 * waits + 1e-9
+    # Whole-percent reports leave up to one percent of each wait counted (never less
+    # than was used moving): a fifth of a 5 % window at most.
+    assert moving_rate <= waiting.rate_pct_per_m <= plain.rate_pct_per_m * 1.25
+    # Unpaused, the same waits are charged to the metres flown.
+    counted = EnergyEstimator(0.05)
+    counted.add(0.0, 100.0)
+    true = 100.0
+    for leg in range(8):
+        true = drive(counted, moving_rate, 20.0, start=true)
+        if leg % (8 // waits) == 0:
+            for _ in range(80):
+                true -= 0.025
+                counted.add(0.0, math.ceil(true))
+    assert counted.rate_pct_per_m > waiting.rate_pct_per_m
+
+
+def test_a_charge_during_a_wait_starts_the_discharge_from_the_charged_level() -> None:
+    est = EnergyEstimator(0.05)
+    est.add(0.0, 100.0)
+    true = drive(est, 0.4, 60.0)
+    est.pause()
+    est.add(0.0, 100.0)  # charged on the pad while it waited
+    est.add(0.0, 99.0)
+    est.resume()
+    drive(est, 0.4, 30.0, start=99.0)
+    assert true < 80.0
+    assert est.rate_pct_per_m >= 0.4 - 1e-9
+
+
 def test_settings_are_checked() -> None:
     with pytest.raises(ValueError):
         EnergySettings(margin=0.9)
