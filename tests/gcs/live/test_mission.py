@@ -408,7 +408,7 @@ def test_demo_fleet_is_no_longer_than_the_plan(tmp_path: Path, agents: int) -> N
     most of the sweeping, each on an estimate of its consumption with a margin, so
     they come home to charge once or twice each: 2 to 6 charges where the plan has 3.
     The greedy planner also depends on the order of decisions. Measured live/plan:
-    0.99-1.07 with 3 vehicles (5 runs); 0.99-1.29 with 5 (12 runs, median 1.12; before
+    0.86-1.07 with 3 vehicles (12 runs); 0.99-1.29 with 5 (12 runs, median 1.13; before
     waits were left out of the copters' estimates, up to 1.47). A fleet is flown
     again, up to three times, while its runs are longer than the margin; the best run
     is held to it. The whole fleet shares one UDP port (as behind one radio), so the

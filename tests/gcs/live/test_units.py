@@ -278,13 +278,18 @@ def test_noise_and_sag_keep_it_pessimistic() -> None:
     assert est.estimate_pct_per_m >= 0.4
 
 
-def hover(est: EnergyEstimator, true: float, rate_pct_s: float, seconds: float) -> float:
-    """A wait in the air: the charge falls with no metre moved (samples every 0.5 s)."""
-    est.pause()
+def hover(
+    est: EnergyEstimator, true: float, rate_pct_s: float, seconds: float, *, paused: bool = True
+) -> float:
+    """A wait in the air: the charge falls with no metre moved (samples every 0.5 s);
+    the estimator told so unless ``paused`` is False."""
+    if paused:
+        est.pause()
     for _ in range(int(seconds / 0.5)):
         true -= rate_pct_s * 0.5
         est.add(0.0, math.ceil(true))
-    est.resume()
+    if paused:
+        est.resume()
     return true
 
 
@@ -293,9 +298,8 @@ def test_waiting_is_not_counted_per_metre_and_the_estimate_stays_an_upper_bound(
     waits: int,
 ) -> None:
     """A copter held back between sweeps hovers; what it uses then depends on how long it
-    is held, not on the metres it flies. Counted per metre, these waits made copters'
-    estimates 1.5-1.9 times their true rate. The estimate stays above the true rate
-    whatever the quantisation leaves."""
+    is held, not on the metres it flies, and counted per metre it sent copters home
+    early. The estimate stays above the true rate whatever the quantisation leaves."""
     moving_rate = 0.35
     plain, waiting = EnergyEstimator(0.05), EnergyEstimator(0.05)
     plain.add(0.0, 100.0)
@@ -317,23 +321,28 @@ def test_waiting_is_not_counted_per_metre_and_the_estimate_stays_an_upper_bound(
     for leg in range(8):
         true = drive(counted, moving_rate, 20.0, start=true)
         if leg % (8 // waits) == 0:
-            for _ in range(80):
-                true -= 0.025
-                counted.add(0.0, math.ceil(true))
+            true = hover(counted, true, 0.05, 40.0, paused=False)
     assert counted.rate_pct_per_m > waiting.rate_pct_per_m
 
 
-def test_a_charge_during_a_wait_starts_the_discharge_from_the_charged_level() -> None:
-    est = EnergyEstimator(0.05)
-    est.add(0.0, 100.0)
-    true = drive(est, 0.4, 60.0)
-    est.pause()
-    est.add(0.0, 100.0)  # charged on the pad while it waited
-    est.add(0.0, 99.0)
-    est.resume()
-    drive(est, 0.4, 30.0, start=99.0)
-    assert true < 80.0
-    assert est.rate_pct_per_m >= 0.4 - 1e-9
+def test_a_charge_during_a_wait_leaves_out_only_what_was_used_after_it() -> None:
+    """Charged on the pad while it waited, then hovering: what it used after the charge
+    is the wait's, and is left out (one percent of it stays counted)."""
+
+    def fly(paused: bool) -> EnergyEstimator:
+        est = EnergyEstimator(0.05)
+        est.add(0.0, 50.0)
+        if paused:
+            est.pause()
+        for pct in (100.0, 99.0, 98.0, 97.0):  # charged, then 3 % hovering
+            est.add(0.0, pct)
+        if paused:
+            est.resume()
+        drive(est, 0.4, 10.0, start=97.0)
+        return est
+
+    waited, counted = fly(paused=True), fly(paused=False)
+    assert 0.4 <= waited.rate_pct_per_m < counted.rate_pct_per_m
 
 
 def test_settings_are_checked() -> None:
