@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import contextlib
 import itertools
+import logging
 import pickle
 import traceback
 from collections.abc import Callable, Generator, Iterator, Sequence
@@ -142,6 +143,10 @@ def _client(where: Where, runs: int) -> Iterator[Any]:
             # dashboard: on a free loopback port rather than 8787.
             scheduler_kwargs={"dashboard_address": LOOPBACK_ANY_PORT},
             memory_limit=0,
+            # Only critical lines from the cluster itself: a worker whose heartbeat meets
+            # the scheduler closing after Ctrl-C logs a traceback, and a run that fails
+            # is reported as its row in any case.
+            silence_logs=logging.CRITICAL,
         ) as cluster,
         Client(cluster) as client,
     ):
