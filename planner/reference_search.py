@@ -12,7 +12,7 @@ from collections.abc import Iterable, Iterator
 
 from core.cells import CellState
 from planner.belief import UNREACHED, MapBelief
-from planner.target_search import HELD_BACK, Found, SearchMemory, SearchRequest
+from planner.target_search import HELD_BACK, Found, SearchMemory, SearchRequest, rival_first
 from planner.team import Team
 
 _FREE = int(CellState.FREE)
@@ -52,9 +52,10 @@ class ReferenceSearch:
         path = self._unwind(parent, request.start, best[rank])
         hint = request.hint
         way = () if hint is None else hint.way
+        found = Found(rank, best[rank], path)
         if way and way[-1] == path[-1] and len(way) == len(path):
-            return Found(rank, best[rank], way)
-        return Found(rank, best[rank], path)
+            found = Found(rank, best[rank], way)
+        return HELD_BACK if rival_first(request, found, belief.cell(found.cell)) else found
 
     def _rank(self, request: SearchRequest, cell: int, moves: int) -> int | None:
         """The rank of a candidate ``moves`` away, or None if not affordable."""

@@ -37,6 +37,8 @@ class SearchShortcuts:
     settled: bool = True
     #: Every candidate found left to other agents without a search.
     left_to_others: bool = True
+    #: A held agent's distances from its cell kept for its next search (``StillField``).
+    still_field: bool = True
 
 
 class TargetPolicy(StrEnum):

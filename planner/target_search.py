@@ -10,7 +10,10 @@ other working agents (see ``Targets._nearest_affordable`` in ``planner.targets``
 - rank 1, with a ``hold`` radius: some other agent is nearer, but none within
   ``hold`` cells of it (nor as near as the way there);
 - rank 2, contested: left to the other agent. With ``hold`` > 0 the agent is
-  held back (``HELD_BACK``) when nothing ranks better.
+  held back (``HELD_BACK``) when nothing ranks better, and, with a
+  ``rival_pace`` too, when the first of rank 1 is one that its nearest other
+  agent, drawing nearer by ``rival_pace`` cells a move, would come within
+  ``hold`` of before this agent walked there (``rival_first``).
 
 The first rank-0 candidate the search reaches wins; else the first of rank 1,
 else the first of rank 2. A candidate is affordable when its range from the
@@ -70,6 +73,7 @@ class SearchRequest(NamedTuple):
     excluded: Sequence[int] | np.ndarray = ()
     pool: Iterable[int] | None = None
     hint: Hint | None = None
+    rival_pace: float = 0.0
 
 
 class Found(NamedTuple):
@@ -84,6 +88,18 @@ class Found(NamedTuple):
 #: The answer when, with a ``hold`` radius, every candidate the agent can afford
 #: is left to another agent: rank 2 and no target (finding a way would be wasted).
 HELD_BACK = Found(2, -1, ())
+
+
+def rival_first(request: SearchRequest, found: Found, cell: tuple[int, int]) -> bool:
+    """Is ``found`` (at ``cell``, a row and column) of rank 1 and one that the nearest
+    other agent, drawing nearer by ``request.rival_pace`` cells for each move of the
+    way, would come within ``hold`` of first (Manhattan, as the ranks)? Then the
+    search answers ``HELD_BACK``."""
+    rows, cols = request.others
+    if found.rank != 1 or request.rival_pace <= 0.0 or rows.size == 0:
+        return False
+    nearest = int(np.min(np.abs(rows - cell[0]) + np.abs(cols - cell[1])))
+    return nearest - request.hold < request.rival_pace * len(found.path)
 
 
 class SearchMemory:

@@ -287,7 +287,9 @@ class Targets:
         With ``hold_radius``, when every candidate is nearer to another working
         agent, those within ``hold_radius`` cells of such an agent are left to it
         (it is about to sweep them: chasing them only walks beside it), and
-        ``HELD`` says that all of them are. One compiled search ranks them all
+        ``HELD`` says that all of them are, or (``rival_pace``) that the nearest
+        of the others is one its agent would come within ``hold_radius`` of
+        before this one got there. One compiled search ranks them all
         (or confirms ``hint``: the target on the way to, the way there, and
         when it was last known to be a shortest way).
 
@@ -297,6 +299,7 @@ class Targets:
         """
         spread = self.settings.spread
         hold = self.settings.hold_radius if spread else 0
+        pace = self.settings.rival_pace if hold else 0.0
         # Positional: a keyword costs more than the field it names, once a decision.
         floor, best_cost = self.settings.reserve_pct - _EPS, self._best_move_cost()
         energy = Energy(a.battery_pct, self._move_cost(a), floor, best_cost, self._range_budget_pct)
@@ -308,28 +311,14 @@ class Targets:
             held = self._regions.held_by_others(a, self._claims, previous)
             if held.size:
                 excluded = np.concatenate((np.array(claimed, dtype=np.int64), held))
-                request = SearchRequest(a.index, energy, others, hold, excluded, pool, heading)
-                found = self._search.run(request, a.search_memory)
+                ask = SearchRequest(a.index, energy, others, hold, excluded, pool, heading, pace)
+                found = self._search.run(ask, a.search_memory)
         if found is None:
-            request = SearchRequest(a.index, energy, others, hold, claimed, pool, heading)
+            request = SearchRequest(a.index, energy, others, hold, claimed, pool, heading, pace)
             found = self._search.run(request, a.search_memory)
         if found is None:
             return None
         level, goal, path = found
-        if hold and (level == _Rank.CONTESTED or self._rival_first(level, goal, path, others)):
+        if hold and level == _Rank.CONTESTED:
             return HELD
         return goal, path
-
-    def _rival_first(
-        self, level: int, goal: int, path: Sequence[int], others: tuple[np.ndarray, np.ndarray]
-    ) -> bool:
-        """Whether a target nearer to another working agent (``BEYOND_HOLD``) is one
-        that agent, drawing nearer at ``rival_pace``, would be about to sweep (within
-        ``hold_radius``: Manhattan, as the ranks) before this agent walked ``path``."""
-        pace = self.settings.rival_pace
-        rows, cols = others
-        if level != _Rank.BEYOND_HOLD or pace <= 0.0 or rows.size == 0:
-            return False
-        r, c = self.belief.cell(goal)
-        nearest = int(np.min(np.abs(rows - r) + np.abs(cols - c)))
-        return nearest - self.settings.hold_radius < pace * len(path)

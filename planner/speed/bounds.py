@@ -57,7 +57,14 @@ def way_within(u: int, v: int, moves: int, stride: int, lands: np.ndarray) -> bo
 
 @njit(cache=True, nogil=True)
 def may_rival(
-    v: int, mine: int, limit: int, grid: Grid, rivals: Rivals, closer: int, energy: EnergyTerms
+    v: int,
+    mine: int,
+    limit: int,
+    grid: Grid,
+    rivals: Rivals,
+    closer: int,
+    energy: EnergyTerms,
+    pace: float = 0.0,
 ) -> int:
     """Could candidate ``v``, ``mine`` moves or more away, be a target that no
     other agent is nearer to than ``min(its distance, limit)``? Not when
@@ -65,10 +72,18 @@ def may_rival(
     agent (ask about the next cell from there: neighbouring cells likely share
     it). Not when it is out of range or cannot be afforded even at ``mine``
     moves (``_search``'s tests, with ``energy`` its battery, cost, floor,
-    best_cost and budget): ``closer``. Else -1."""
+    best_cost and budget): ``closer``. Else -1.
+
+    With a rival ``pace`` (``limit`` then the hold radius plus one), not either
+    when another agent nearer than ``mine`` is nearer than the hold radius plus
+    ``pace * mine``: at ``d`` moves a candidate of rank 1 whose nearest other
+    agent is nearer than the hold radius plus ``pace * d`` is held back
+    (``planner.target_search.rival_first``, the same sum), and so it is at any
+    ``d`` from ``mine`` on."""
     _, stride, lands = grid
     others_r, others_c, _ = rivals
     bar = min(mine, limit)
+    hold = limit - 1
     r = v // stride - 1
     c = v % stride - 1
     n = others_r.size
@@ -76,7 +91,8 @@ def may_rival(
         j = closer + i
         if j >= n:
             j -= n
-        if abs(r - others_r[j]) + abs(c - others_c[j]) < bar:
+        near = abs(r - others_r[j]) + abs(c - others_c[j])
+        if near < bar or (pace > 0.0 and near < mine and near - hold < pace * mine):
             return j
     battery, cost, floor, best_cost, budget = energy
     back = lands[v, HOME]
@@ -96,16 +112,16 @@ def rivals_listed(
     rivals: Rivals,
     energy: EnergyTerms,
     out: tuple[np.ndarray, np.ndarray],
+    pace: float = 0.0,
 ) -> tuple[int, int]:
-    """The listed candidates but ``goal`` that may be within ``reach`` moves of
-    the start (``way_at_least``, its Manhattan part first: it rules most out)
-    and ``may_rival``: put in ``found``, and their count (``found.size`` when
-    there are more); second, the count of the listed candidates but ``goal``
-    within ``reach`` by Manhattan distance, put in ``near`` when it has room for
-    every listed cell (else left alone; -1 when the pass stopped at too many
-    rivals). ``near`` may be ``listed`` itself: it is written behind the reading.
-    ``ask``: the start, ``goal``, ``reach`` and the ``limit`` of ``may_rival``;
-    ``out``: ``found`` and ``near``."""
+    """The listed candidates but ``goal`` that may be within ``reach`` moves of the start
+    (``way_at_least``, its Manhattan part first: it rules most out) and ``may_rival`` (with the
+    rival ``pace``): put in ``found``, and their count (``found.size`` when there are more);
+    second, the count of the listed candidates but ``goal`` within ``reach`` by Manhattan
+    distance, put in ``near`` when it has room for every listed cell (else left alone; -1 when
+    the pass stopped at too many rivals). ``near`` may be ``listed`` itself: it is written
+    behind the reading. ``ask``: the start, ``goal``, ``reach`` and the ``limit`` of
+    ``may_rival``; ``out``: ``found`` and ``near``."""
     start, goal, reach, limit = ask
     found, near = out
     _, stride, lands = grid
@@ -126,7 +142,7 @@ def rivals_listed(
         mine = max(mine, landmark_gap(v, start, lands))
         if mine > reach:
             continue
-        closer = may_rival(v, mine, limit, grid, rivals, closer, energy)
+        closer = may_rival(v, mine, limit, grid, rivals, closer, energy, pace)
         if closer < 0:
             if count == found.size:
                 return count, -1

@@ -5,7 +5,8 @@ without it: on the way to a target by a confirmation (``_confirm``: a pass over
 the few candidates that might come first, and a search bounded to the ways to
 them), by a target carried on while nothing it rests on changed
 (``SettledTarget``), or, when every candidate is left to other agents, by
-``_all_left_to_others``. Each shortcut can be switched off
+``_all_left_to_others`` (for an agent held back, with its distances from where it
+stands: ``StillField``). Each shortcut can be switched off
 (``PlannerSettings.search_shortcuts``): the answers are the same.
 """
 
@@ -30,12 +31,14 @@ from planner.speed.search_kernels import (
 )
 from planner.speed.search_scratch import SearchCounts
 from planner.speed.settled_target import SettledTarget
+from planner.speed.still_field import StillField
 from planner.target_search import (
     HELD_BACK,
     Energy,
     Found,
     SearchMemory,
     SearchRequest,
+    rival_first,
 )
 from planner.team import Team
 
@@ -84,7 +87,7 @@ class CompiledSearch(Confirmations):
         return self._unwind(start, goal) if found == 1 else None
 
     def memory(self, team: Team, slot: int) -> AgentMemory:
-        return AgentMemory(HorizonMemo(team, slot), WayMemo(), SettledTarget())
+        return AgentMemory(HorizonMemo(team, slot), WayMemo(), SettledTarget(), StillField())
 
     def run(self, request: SearchRequest, memory: SearchMemory | None = None) -> Found | None:
         """The answer of ``planner.target_search`` (``memory``: an ``AgentMemory``,
@@ -95,13 +98,15 @@ class CompiledSearch(Confirmations):
         a shortest path there, perhaps the hint's way rather than the one the
         search finds), or as the settled target carried along the hint's way
         while nothing it rests on changed (``SettledTarget``, while no other
-        agent works). With ``hold`` > 0, rank 2 is always ``HELD_BACK``."""
+        agent works). With ``hold`` > 0, rank 2 is always ``HELD_BACK``, and so is a
+        rank 1 answer that ``rival_first`` holds back."""
         taken = self.shortcuts_taken
         kept = memory if isinstance(memory, AgentMemory) and request.pool is None else None
         horizon = kept.horizon if kept is not None and taken.shortlist else None
         way_memo = kept.way if kept is not None and taken.way_memo else None
         settled = kept.settled if kept is not None and taken.settled else None
-        used = (horizon, way_memo)
+        still = kept.still if kept is not None and taken.still_field else None
+        used = (horizon, way_memo, still)
         self.update_lands()
         energy = (*request.energy,)  # a plain tuple: numba types it from its C fast path
         start, hint, excluded = request.start, request.hint, request.excluded
@@ -109,7 +114,10 @@ class CompiledSearch(Confirmations):
             # Ranked against others: nothing is settled (``_carried`` would refuse it).
             if settled is not None and settled.goal >= 0:
                 settled.forget()
-            return self._search(request, energy, used)
+            found = self._search(request, energy, used)
+            if found is not None and rival_first(request, found, self.belief.cell(found.cell)):
+                return HELD_BACK
+            return found
         on_way = hint is not None and settled.goal == hint.goal
         if on_way and hint is not None and self._carried(start, hint, energy, excluded, settled):
             self.counts.carried += 1
@@ -122,11 +130,11 @@ class CompiledSearch(Confirmations):
         self,
         request: SearchRequest,
         energy: EnergyTerms,
-        used: tuple[HorizonMemo | None, WayMemo | None],
+        used: tuple[HorizonMemo | None, WayMemo | None, StillField | None],
     ) -> Found | None:
         """``run`` without the settled target: ``used``, the agent's memos in use."""
         self._alone = False
-        memo, way_memo = used
+        memo, way_memo, still = used
         start, others, hold, pool = request.start, request.others, request.hold, request.pool
         rivals = (others[0], others[1], hold)
         hint = request.hint if pool is None else None
@@ -148,7 +156,8 @@ class CompiledSearch(Confirmations):
                     if renewed is not None:
                         listed, margin = renewed, -1
             if pool is None and hold > 0 and others[0].size and self.shortcuts_taken.left_to_others:
-                known, found = self._all_left_to_others(start, energy, rivals)
+                pace = request.rival_pace
+                known, found = self._all_left_to_others(start, energy, rivals, pace, still)
                 if known:
                     return found
             rank, cell, kept = self._ranked(start, energy, rivals, (mask, listed, cells), margin)

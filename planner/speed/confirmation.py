@@ -24,6 +24,7 @@ from planner.speed.search_kernels import (
 )
 from planner.speed.search_scratch import SearchScratch
 from planner.speed.settled_target import SettledTie
+from planner.speed.still_field import HELD, SEARCH, StillField, all_held
 from planner.speed.walks import (
     none_uncontested,
 )
@@ -244,10 +245,14 @@ class Confirmations(SearchScratch):
         start: int,
         energy: EnergyTerms,
         rivals: Rivals,
+        pace: float,
+        still: StillField | None,
     ) -> tuple[bool, Found | None]:
         """``(True, what the search returns)`` when every candidate is surely left
-        to another agent (within ``hold`` of one, and nearer to it), else
-        ``(False, None)``.
+        to another agent (within ``hold`` of one, and nearer to it; or, with a
+        rival ``pace``, nearer to it and one it would come within ``hold`` of
+        before this agent got there, however long the way: ``rival_first``),
+        else ``(False, None)``.
 
         Then the search, finding no better rank, covers the whole known map
         for a candidate the agent can afford (rank 2: the coordinator holds
@@ -256,18 +261,21 @@ class Confirmations(SearchScratch):
         lists those the agent might afford; when a way through a landmark
         affords one (``surely_affordable``), that is the answer, else a
         search bounded to the ways to them finds one, or that there is none.
-        With too many to list, only the search can tell.
+        When the bounds leave some that may rank better, or too many to list,
+        the distances from where a held agent stands still (``still``) may
+        tell; else only the search can.
         """
         candidate, full = self.candidate, self.uncovered_list[: self.belief.uncovered_count]
         found = self._rivals[: self.LEFT_TO_OTHERS]
         grid, hold, out = self.grid, rivals[2], (found, self._no_near)
         better = (start, -1, UNREACHED, hold + 1)
-        if rivals_listed(candidate, full, better, grid, rivals, energy, out)[0]:
-            return False, None  # some may rank better
+        if rivals_listed(candidate, full, better, grid, rivals, energy, out, pace)[0]:
+            # Some may rank better by the bounds: at the true distances, perhaps not.
+            return self._held_where_still(start, energy, rivals, pace, still)
         left = (start, -1, UNREACHED, 0)
         count = rivals_listed(candidate, full, left, grid, rivals, energy, out)[0]
         if count == self.LEFT_TO_OTHERS:
-            return False, None
+            return self._held_where_still(start, energy, rivals, pace, still)
         targets = found[:count]
         if count == 0:
             return True, None
@@ -279,6 +287,26 @@ class Confirmations(SearchScratch):
             bound = int((battery - floor) / cost) - int(self.home[targets].min()) + 1
         rank, _ = self._first_reached(start, targets, min(bound, UNREACHED), 2, rivals, energy)
         return True, None if rank < 0 else HELD_BACK
+
+    def _held_where_still(
+        self,
+        start: int,
+        energy: EnergyTerms,
+        rivals: Rivals,
+        pace: float,
+        still: StillField | None,
+    ) -> tuple[bool, Found | None]:
+        """``_all_left_to_others`` by the exact distances from ``start``, when the
+        agent searched from there last time too (``StillField``)."""
+        dist = None if still is None else still.distances(self.belief, start, self.queue)
+        if dist is None:
+            return False, None
+        full = self.uncovered_list[: self.belief.uncovered_count]
+        verdict = all_held(self.candidate, full, dist, self.grid, rivals, energy, pace)
+        if verdict == SEARCH:
+            return False, None
+        self.counts.held_still += 1
+        return True, HELD_BACK if verdict == HELD else None
 
     def _still_shortest(
         self, start: int, goal: int, moves: int, known_at: tuple[int, int] | None

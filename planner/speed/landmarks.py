@@ -71,7 +71,7 @@ def _relax(state: np.ndarray, lands: np.ndarray, col: int, start: int, stride: i
 
 
 @njit(cache=True, nogil=True)
-def _join(state: np.ndarray, lands: np.ndarray, added: np.ndarray, stride: int,
+def join_added(state: np.ndarray, lands: np.ndarray, added: np.ndarray, stride: int,
           queue: np.ndarray) -> None:  # fmt: skip
     """Bring the columns up to date with the ``added`` cells (in the order they
     became free): each takes one more than its nearest neighbour, and what it
@@ -91,7 +91,7 @@ def _join(state: np.ndarray, lands: np.ndarray, added: np.ndarray, stride: int,
 
 
 @njit(cache=True, nogil=True)
-def _fill(state: np.ndarray, lands: np.ndarray, col: int, source: int, stride: int,
+def fill_column(state: np.ndarray, lands: np.ndarray, col: int, source: int, stride: int,
           queue: np.ndarray) -> None:  # fmt: skip
     """Column ``col`` afresh: the distances from ``source``."""
     lands[:, col] = UNREACHED
@@ -135,7 +135,7 @@ def _spread(state: np.ndarray, lands: np.ndarray, stride: int, queue: np.ndarray
     while chosen < lands.shape[1] - 1 and far >= 0:
         chosen += 1
         cells[chosen - 1] = far
-        _fill(state, dist, 0, far, stride, queue)
+        fill_column(state, dist, 0, far, stride, queue)
         for v in range(size):
             d = dist[v, 0]
             lands[v, chosen] = d
@@ -186,15 +186,15 @@ class Landmarks:
             self._joined = belief.added_count
             if all(self._state[c] == _FREE for c in self.cells):
                 for col, source in enumerate(self.cells):
-                    _fill(self._state, self.lands, col, source, belief.stride, self._queue)
+                    fill_column(self._state, self.lands, col, source, belief.stride, self._queue)
             else:  # a landmark was blocked
-                _fill(self._state, self.lands, HOME, belief.charger_index, belief.stride,
+                fill_column(self._state, self.lands, HOME, belief.charger_index, belief.stride,
                       self._queue)  # fmt: skip
                 self._choose()
         elif belief.added_count != self._joined:
             added = self._added[self._joined : belief.added_count]
             self._joined = belief.added_count
-            _join(self._state, self.lands, added, belief.stride, self._queue)
+            join_added(self._state, self.lands, added, belief.stride, self._queue)
         if belief.free_count >= self._choose_at:
             # Fewer than wanted: the charger reaches few cells of what is known yet.
             few = self._choose() < MOST

@@ -1,7 +1,8 @@
 """What the compiled target search keeps of each agent from one decision to the
 next: the cells that may still be uncontested (``HorizonMemo``), the candidates
-near its way (``WayMemo``) and the target the last check proved
-(``SettledTarget``), together one ``AgentMemory``.
+near its way (``WayMemo``), the target the last check proved
+(``SettledTarget``) and the distances from where it stands still
+(``StillField``), together one ``AgentMemory``.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import numpy as np
 from planner.belief import MapBelief
 from planner.speed.bounds import moved_within
 from planner.speed.settled_target import SettledTarget, SettledTie
+from planner.speed.still_field import StillField
 from planner.target_search import (
     SearchMemory,
 )
@@ -161,7 +163,9 @@ class AgentMemory(SearchMemory):
         horizon: HorizonMemo | None = None,
         way: WayMemo | None = None,
         settled: SettledTarget | None = None,
+        still: StillField | None = None,
     ) -> None:
         self.horizon = horizon
         self.way = way
         self.settled = settled
+        self.still = still

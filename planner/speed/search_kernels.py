@@ -161,7 +161,7 @@ def ranked_search(
         head += 1
         for i in range(first, tail):
             v = queue[i]
-            rank = _affordable_rank(v, distance + 1, grid, rivals, energy) if candidate[v] else -1
+            rank = affordable_rank(v, distance + 1, grid, rivals, energy) if candidate[v] else -1
             if rank < 0 or (rank == 1 and best1 >= 0) or (rank == 2 and best2 >= 0):
                 continue
             if rank == 0:
@@ -197,7 +197,7 @@ def _expand(u: int, grid: Grid, scratch: Scratch, tail: int, stamp: int) -> int:
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _affordable_rank(v: int, d: int, grid: Grid, rivals: Rivals, energy: EnergyTerms) -> int:
+def affordable_rank(v: int, d: int, grid: Grid, rivals: Rivals, energy: EnergyTerms) -> int:
     """Candidate ``v``'s rank ``d`` moves away (``target_rank``), or -1 when it is
     out of range for every agent or the agent cannot afford it there."""
     battery, cost, floor, best_cost, budget = energy

@@ -34,6 +34,7 @@ class SearchCounts:
     carried: int = 0  # settled targets carried on
     way_listed: int = 0  # confirmations that passed over the way memo's cells
     bounded: int = 0  # searches bounded to the ways to a few targets (``first_among``)
+    held_still: int = 0  # held agents' answers told by their distances (``StillField``)
 
 
 class SearchScratch:

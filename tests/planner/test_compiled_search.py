@@ -22,7 +22,8 @@ from planner.speed.compiled_search import (
 )
 from planner.speed.search_kernels import uncontested_horizon
 from planner.speed.settled_target import SettledTarget
-from planner.target_search import Energy, Found, Hint, SearchRequest
+from planner.speed.still_field import StillField
+from planner.target_search import HELD_BACK, Energy, Found, Hint, SearchRequest
 from planner.team import Team
 from sitl_mock import mapgen
 
@@ -45,12 +46,14 @@ def _run(
     hint: tuple | None = None,
     way_memo: WayMemo | None = None,
     settled: SettledTarget | None = None,
+    pace: float = 0.0,
+    still: StillField | None = None,
 ) -> Found | None:
     """The search's answer, with the agent's memories given (None: not kept)."""
     energy = Energy(battery, cost, floor, best_cost, budget)
     hinted = None if hint is None else Hint(*hint)
-    request = SearchRequest(start, energy, others, hold, excluded, pool, hinted)
-    return search.run(request, AgentMemory(memo, way_memo, settled))
+    request = SearchRequest(start, energy, others, hold, excluded, pool, hinted, pace)
+    return search.run(request, AgentMemory(memo, way_memo, settled, still))
 
 
 def _lands(search: CompiledSearch) -> np.ndarray:
@@ -280,11 +283,15 @@ def _as_searched(found, searched) -> None:
     seed=st.integers(0, 2**32 - 1),
     agents=st.integers(2, 12),
     hold=st.sampled_from([2, 5, 8]),
+    pace=st.sampled_from([0.0, 0.05, 0.1, 0.3, 1.0]),
 )
-def test_all_left_to_others_is_what_the_search_finds(seed: int, agents: int, hold: int) -> None:
+def test_all_left_to_others_is_what_the_search_finds(
+    seed: int, agents: int, hold: int, pace: float
+) -> None:
     """With the other agents amid the last uncovered cells, the shortcut that
-    finds every candidate left to them gives what the search gives, cell and
-    path, or leaves the answer to the search."""
+    finds every candidate left to them (with a rival pace: or to be reached by
+    them first) gives what the search gives, cell and path, or leaves the
+    answer to the search."""
     rng = np.random.default_rng(seed)
     covered = rng.uniform(0.7, 0.99) if rng.random() < 0.3 else rng.uniform(0.99, 0.9995)
     belief, walls = _swept_map(rng, seed, covered)
@@ -311,9 +318,69 @@ def test_all_left_to_others_is_what_the_search_finds(seed: int, agents: int, hol
         hold,
         list[int](),
     )
-    quick = _run(search, *args)
+    quick = _run(search, *args, pace=pace)
     plain = CompiledSearch(belief, SearchShortcuts(left_to_others=False))
-    assert _run(plain, *args) == quick
+    assert _run(plain, *args, pace=pace) == quick
+    # Searching from there again, with the distances from there kept.
+    still = StillField()
+    assert _run(search, *args, pace=pace, still=still) == quick
+    assert _run(search, *args, pace=pace, still=still) == quick
+
+
+def test_left_to_a_rival_drawing_nearer_needs_no_search() -> None:
+    """The last uncovered cells lie 10 cells or more from another agent and 58 moves
+    or more from this one, on open ground. Beyond a hold radius of 5, they rank 1;
+    with a rival pace of 0.5 that agent comes within 5 of them long before this one
+    walks there (10 - 5 < 0.5 * 58): held back, told by a pass over the candidates, without
+    the search, as the search itself tells."""
+    belief = MapBelief((SIDE, SIDE), (0, 0))
+    for r in range(SIDE):
+        for c in range(SIDE):
+            belief.mark_free(belief.index((r, c)))
+    for i in list(belief.uncovered):
+        r, c = belief.cell(i)
+        if not (29 <= r <= 31 and 29 <= c <= 31):
+            belief.cover((r, c), 1)
+    rival = (np.array([20], dtype=np.int64), np.array([30], dtype=np.int64))
+    args = (belief.index((0, 0)), 100.0, 0.1, 20.0, 0.1, 80.0, rival, 5, list[int]())
+    search = CompiledSearch(belief)
+    assert _run(search, *args, pace=0.5) == HELD_BACK
+    assert search.counts.searches == 0
+    plain = CompiledSearch(belief, SearchShortcuts(left_to_others=False))
+    assert _run(plain, *args, pace=0.5) == HELD_BACK
+    assert plain.counts.searches == 1
+    found = _run(search, *args)  # no pace: set out for it
+    assert found is not None and found[0] == 1 and belief.cell(found[1]) == (29, 29)
+
+
+@settings(max_examples=100, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), rounds=st.integers(1, 6))
+def test_still_field_is_the_breadth_first_distances(seed: int, rounds: int) -> None:
+    """As the known map grows and cells are found blocked, the distances kept from
+    where the agent stands are those of a breadth-first search of the map as known,
+    and none are kept for a cell searched from only once."""
+    rng = np.random.default_rng(seed)
+    belief = MapBelief((SIDE, SIDE), (0, 0))
+    for r, c in rng.integers(0, SIDE, size=(600, 2)):
+        belief.mark_free(belief.index((int(r), int(c))))
+    start = belief.index((0, 0))
+    search = CompiledSearch(belief)
+    still = StillField()
+    assert still.distances(belief, start, search.queue) is None
+    for _ in range(rounds):
+        dist = still.distances(belief, start, search.queue)
+        assert dist is not None
+        truth = bfs_distances(belief, start)
+        reached = np.flatnonzero(dist < UNREACHED)
+        assert set(reached.tolist()) == set(truth)
+        assert all(int(dist[v]) == d for v, d in truth.items())
+        for r, c in rng.integers(0, SIDE, size=(int(rng.integers(0, 200)), 2)):
+            belief.mark_free(belief.index((int(r), int(c))))
+        if rng.random() < 0.3:
+            free = [i for i in truth if i != start]
+            if free:
+                belief.block(free[int(rng.integers(0, len(free)))])
+    assert still.distances(belief, belief.index((0, 1)), search.queue) is None
 
 
 def _walls_opening(walls: np.ndarray, near: tuple[int, int], reach: int, sides: int) -> list:

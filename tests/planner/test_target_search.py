@@ -94,3 +94,17 @@ def test_plans_are_the_same_without_the_settled_target(grid, agents: int) -> Non
     with_it, taken = _counted(grid, agents)
     assert taken.carried > 0
     assert _tracks_digest(grid, agents, **_without(settled=False)) == with_it
+
+
+@pytest.mark.parametrize(
+    ("grid", "agents"),
+    [pytest.param(mapgen.rooms(80, 80, 2), 20, id="rooms80-20")],
+)
+def test_plans_are_the_same_without_the_still_field(grid, agents: int) -> None:
+    """Telling a held agent's answer by its distances from where it stands changes
+    no move, and it does spare searches."""
+    with_it, taken = _counted(grid, agents)
+    plain, searched = _counted(grid, agents, **_without(still_field=False))
+    assert plain == with_it
+    assert taken.held_still > 0 and searched.held_still == 0
+    assert taken.searches < searched.searches
