@@ -297,8 +297,13 @@ class Confirmations(SearchScratch):
         still: StillField | None,
     ) -> tuple[bool, Found | None]:
         """``_all_left_to_others`` by the exact distances from ``start``, when the
-        agent searched from there last time too (``StillField``)."""
-        dist = None if still is None else still.distances(self.belief, start, self.queue)
+        agent searched from there last time too (``StillField``), on a map whose
+        ways are long beside the Manhattan distance (where landmarks are kept):
+        elsewhere the bounds tell nearly as much, and the distances from a new
+        cell, a search of the known map, cost more than they spare."""
+        if still is None or len(self.landmarks.cells) == 1:
+            return False, None
+        dist = still.distances(self.belief, start, self.queue)
         if dist is None:
             return False, None
         full = self.uncovered_list[: self.belief.uncovered_count]
