@@ -2,17 +2,16 @@
 
 An agent held back (every target left to another agent, or to be reached by one
 first) searches again from the same cell after each pause. In a maze most of
-those searches end held back again, and each covered the whole known map to
-prove it: on rooms 1000x1000 with 50 agents, 108 thousand such searches took 96 s
-of the 177 s of planning. The lower bounds of ``planner.speed.bounds`` cannot
+those searches end held back again, and each covers the whole known map to
+prove it (most of the planning of a crowd there). The lower bounds of ``planner.speed.bounds`` cannot
 tell a target 20 cells away as the crow flies from one 300 moves away round the
 walls, but the distances from the agent's cell can, and while the agent stands
 still they change only as the known map does: kept in a column from the second
 search from one cell on, brought up to date with the cells found since (as the
 landmarks' columns are), they give every candidate's exact distance. When at
-those distances no candidate the agent can afford ranks better than left to
-others or reached by another first, the search would answer so too, whichever
-candidate it reached first (``all_held``).
+those distances the search's answer is held back, whichever of the nearest
+candidates of its rank it reached first, or there is none the agent can
+afford (``all_held``), the search is spared.
 """
 
 from __future__ import annotations
@@ -43,15 +42,20 @@ def all_held(
     energy: EnergyTerms,
     pace: float,
 ) -> int:
-    """With ``dist`` the exact distances from the start, is every ``listed``
-    candidate the agent can afford (``affordable_rank``) left to another agent
-    (rank 2), or of rank 1 and one that its nearest other agent, drawing nearer
-    by ``pace`` cells a move, would come within the hold radius of first
-    (``planner.target_search.rival_first``, the same sum)? ``HELD`` if so and
-    one is affordable, ``NONE_AFFORDABLE`` if none is, else ``SEARCH``."""
+    """With ``dist`` the exact distances from the start, is the search's answer
+    among the ``listed`` candidates held back? The search returns the first
+    candidate the agent can afford of the best rank (``affordable_rank``): with
+    none of rank 0, the first of rank 1 it reaches, one of those nearest; the
+    agent is held back when that one is one its nearest other agent, drawing
+    nearer by ``pace`` cells a move, would come within the hold radius of first
+    (``planner.target_search.rival_first``, the same sum), or when all rank 2.
+    ``HELD`` when so whichever of the nearest it reaches first,
+    ``NONE_AFFORDABLE`` when it can afford none, else ``SEARCH``."""
     _, stride, _ = grid
     others_r, others_c, hold = rivals
     affordable = False
+    nearest = UNREACHED  # the distance of the nearest candidates of rank 1
+    held = True  # are all of those held back?
     for k in range(listed.size):
         v = listed[k]
         d = dist[v]
@@ -63,10 +67,13 @@ def all_held(
         affordable = True
         if rank == 0:
             return SEARCH
-        if rank == 1:
+        if rank == 1 and d <= nearest:
             near = nearest_manhattan(others_r, others_c, v // stride - 1, v % stride - 1)
-            if not (pace > 0.0 and near - hold < pace * d):
-                return SEARCH
+            first = pace > 0.0 and near - hold < pace * d
+            held = first if d < nearest else held and first
+            nearest = d
+    if nearest < UNREACHED and not held:
+        return SEARCH
     return HELD if affordable else NONE_AFFORDABLE
 
 
