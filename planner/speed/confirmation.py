@@ -261,21 +261,27 @@ class Confirmations(SearchScratch):
         lists those the agent might afford; when a way through a landmark
         affords one (``surely_affordable``), that is the answer, else a
         search bounded to the ways to them finds one, or that there is none.
-        When the bounds leave some that may rank better, or too many to list,
-        the distances from where a held agent stands still (``still``) may
-        tell; else only the search can.
+        A held agent searching again from where it stands (``still``) is told
+        by one pass over the candidates at their exact distances instead,
+        which tells all the bounds tell, and more.
         """
         candidate, full = self.candidate, self.uncovered_list[: self.belief.uncovered_count]
+        dist = self._still_distances(start, still)
+        if dist is not None:
+            verdict = all_held(candidate, full, dist, self.grid, rivals, energy, pace)
+            if verdict == SEARCH:
+                return False, None
+            self.counts.held_still += 1
+            return True, HELD_BACK if verdict == HELD else None
         found = self._rivals[: self.LEFT_TO_OTHERS]
         grid, hold, out = self.grid, rivals[2], (found, self._no_near)
         better = (start, -1, UNREACHED, hold + 1)
         if rivals_listed(candidate, full, better, grid, rivals, energy, out, pace)[0]:
-            # Some may rank better by the bounds: at the true distances, perhaps not.
-            return self._held_where_still(start, energy, rivals, pace, still)
+            return False, None  # some may rank better
         left = (start, -1, UNREACHED, 0)
         count = rivals_listed(candidate, full, left, grid, rivals, energy, out)[0]
         if count == self.LEFT_TO_OTHERS:
-            return self._held_where_still(start, energy, rivals, pace, still)
+            return False, None
         targets = found[:count]
         if count == 0:
             return True, None
@@ -288,30 +294,15 @@ class Confirmations(SearchScratch):
         rank, _ = self._first_reached(start, targets, min(bound, UNREACHED), 2, rivals, energy)
         return True, None if rank < 0 else HELD_BACK
 
-    def _held_where_still(
-        self,
-        start: int,
-        energy: EnergyTerms,
-        rivals: Rivals,
-        pace: float,
-        still: StillField | None,
-    ) -> tuple[bool, Found | None]:
-        """``_all_left_to_others`` by the exact distances from ``start``, when the
-        agent searched from there last time too (``StillField``), on a map whose
-        ways are long beside the Manhattan distance (where landmarks are kept):
-        elsewhere the bounds tell nearly as much, and the distances from a new
-        cell, a search of the known map, cost more than they spare."""
+    def _still_distances(self, start: int, still: StillField | None) -> np.ndarray | None:
+        """The exact distances from ``start`` when the agent searched from there
+        last time too (``StillField``), on a map whose ways are long beside the
+        Manhattan distance (where landmarks are kept): elsewhere the bounds tell
+        nearly as much, and the distances from a new cell, a search of the known
+        map, cost more than they spare. Else None."""
         if still is None or len(self.landmarks.cells) == 1:
-            return False, None
-        dist = still.distances(self.belief, start, self.queue)
-        if dist is None:
-            return False, None
-        full = self.uncovered_list[: self.belief.uncovered_count]
-        verdict = all_held(self.candidate, full, dist, self.grid, rivals, energy, pace)
-        if verdict == SEARCH:
-            return False, None
-        self.counts.held_still += 1
-        return True, HELD_BACK if verdict == HELD else None
+            return None
+        return still.distances(self.belief, start, self.queue)
 
     def _still_shortest(
         self, start: int, goal: int, moves: int, known_at: tuple[int, int] | None

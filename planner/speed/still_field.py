@@ -1,17 +1,16 @@
 """The distances from where an agent stands still, for the searches of an agent held back.
 
-An agent held back (every target left to another agent, or to be reached by one
-first) searches again from the same cell after each pause. In a maze most of
-those searches end held back again, and each covers the whole known map to
-prove it (most of the planning of a crowd there). The lower bounds of ``planner.speed.bounds`` cannot
-tell a target 20 cells away as the crow flies from one 300 moves away round the
-walls, but the distances from the agent's cell can, and while the agent stands
-still they change only as the known map does: kept in a column from the second
-search from one cell on, brought up to date with the cells found since (as the
-landmarks' columns are), they give every candidate's exact distance. When at
-those distances the search's answer is held back, whichever of the nearest
-candidates of its rank it reached first, or there is none the agent can
-afford (``all_held``), the search is spared.
+An agent held back (every target left to another agent, or to be reached by one first)
+searches again from the same cell after each pause. In a maze most of those searches end
+held back again, and each covers the whole known map to prove it (most of the planning
+of a crowd there). The lower bounds of ``planner.speed.bounds`` cannot tell a target 20
+cells away as the crow flies from one 300 moves away round the walls, but the distances
+from the agent's cell can, and while the agent stands still they change only as the
+known map does: kept in a column from the second search from one cell on, brought up to
+date with the cells found since (as the landmarks' columns are), they give every
+candidate's exact distance. When at those distances the search's answer is held back,
+whichever of the nearest candidates of its rank it reached first, or there is none the
+agent can afford (``all_held``), the search is spared.
 """
 
 from __future__ import annotations
