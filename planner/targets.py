@@ -288,7 +288,7 @@ class Targets:
         agent, those within ``hold_radius`` cells of such an agent are left to it
         (it is about to sweep them: chasing them only walks beside it), and
         ``HELD`` says that all of them are, or (``rival_pace``) that the nearest
-        of the others is one its agent would come within ``hold_radius`` of
+        candidate is one another agent would come within ``hold_radius`` of
         before this one got there. One compiled search ranks them all
         (or confirms ``hint``: the target on the way to, the way there, and
         when it was last known to be a shortest way).
