@@ -44,9 +44,13 @@ REAL_TIME = frozenset(
 REAL_TIME_FOLDERS = ("tests/gcs/live/", "tests/gcs/web/")
 
 
+def real_time(path: str) -> bool:
+    """Does the test file at ``path`` (from the repository's root) run in real time?"""
+    return path in REAL_TIME or path.startswith(REAL_TIME_FOLDERS)
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     root = config.rootpath
     for item in items:
-        path = item.path.relative_to(root).as_posix()
-        if path in REAL_TIME or path.startswith(REAL_TIME_FOLDERS):
+        if real_time(item.path.relative_to(root).as_posix()):
             item.add_marker(pytest.mark.xdist_group("real_time"))

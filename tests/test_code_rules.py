@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import real_time
+
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("core", "planner", "vehicles", "sitl_mock", "gcs")
 #: Everything mypy reads: the product, its tests and the developer's tools.
@@ -187,3 +189,21 @@ def test_no_compiled_kernel_takes_over_8_parameters() -> None:
         if is_kernel(node) and len(node.args.args) + len(node.args.kwonlyargs) > 8
     ]
     assert wide == []
+
+
+#: What a test file that flies a mission or times a link in real time says.
+REAL_TIME_SIGNS = ("speedup", "run_against_fleet", '"--sim"')
+
+
+def test_real_time_tests_run_one_after_another() -> None:
+    """A test file that flies a mock fleet at a speed-up is in the real-time group
+    (``tests/conftest.py``): beside another such test on the second core, each
+    starves the other's event loop."""
+    outside = [
+        path
+        for file in sorted((ROOT / "tests").rglob("test_*.py"))
+        if file != Path(__file__).resolve()
+        and any(sign in file.read_text() for sign in REAL_TIME_SIGNS)
+        and not real_time(path := file.relative_to(ROOT).as_posix())
+    ]
+    assert outside == []
