@@ -72,7 +72,7 @@ def _relax(state: np.ndarray, lands: np.ndarray, col: int, start: int, stride: i
 
 @njit(cache=True, nogil=True)
 def join_added(state: np.ndarray, lands: np.ndarray, added: np.ndarray, stride: int,
-          queue: np.ndarray) -> None:  # fmt: skip
+               queue: np.ndarray) -> None:  # fmt: skip
     """Bring the columns up to date with the ``added`` cells (in the order they
     became free): each takes one more than its nearest neighbour, and what it
     shortens is carried on."""
@@ -92,7 +92,7 @@ def join_added(state: np.ndarray, lands: np.ndarray, added: np.ndarray, stride: 
 
 @njit(cache=True, nogil=True)
 def fill_column(state: np.ndarray, lands: np.ndarray, col: int, source: int, stride: int,
-          queue: np.ndarray) -> None:  # fmt: skip
+                queue: np.ndarray) -> None:  # fmt: skip
     """Column ``col`` afresh: the distances from ``source``."""
     lands[:, col] = UNREACHED
     lands[source, col] = 0
@@ -189,7 +189,7 @@ class Landmarks:
                     fill_column(self._state, self.lands, col, source, belief.stride, self._queue)
             else:  # a landmark was blocked
                 fill_column(self._state, self.lands, HOME, belief.charger_index, belief.stride,
-                      self._queue)  # fmt: skip
+                            self._queue)  # fmt: skip
                 self._choose()
         elif belief.added_count != self._joined:
             added = self._added[self._joined : belief.added_count]

@@ -18,14 +18,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from core.cells import CellState
 from planner.belief import UNREACHED, MapBelief
 from planner.speed.bounds import nearest_manhattan
 from planner.speed.kernel_args import EnergyTerms, Grid, Rivals
 from planner.speed.landmarks import fill_column, join_added
 from planner.speed.search_kernels import affordable_rank
-
-_FREE = int(CellState.FREE)
 
 #: ``all_held``'s verdicts: the search must tell; nothing the agent can afford; held back.
 SEARCH, NONE_AFFORDABLE, HELD = -1, 0, 1
