@@ -17,6 +17,7 @@ this machine and always allowed.
 from __future__ import annotations
 
 import ipaddress
+import random
 import socket
 from dataclasses import dataclass
 from enum import StrEnum
@@ -141,6 +142,14 @@ def parse_serial(text: str) -> Endpoint | None:
     return Endpoint(EndpointKind.SERIAL, device, baud=baud, flow_control=flow_control)
 
 
+#: Ports handed out for mock fleets come from here: below the kernel's ephemeral
+#: range (32768-60999 on Linux, 49152-65535 elsewhere), so no socket bound to port 0
+#: (a sender, a client) can take one between the pick and its use, and above the
+#: usual ports of ground stations and simulators (5760, 14550).
+_PICK_PORTS = range(20000, 32768)
+_pick = random.Random()
+
+
 def free_loopback_udp_ports(count: int) -> list[int]:
     """``count`` distinct loopback UDP ports that nobody uses right now (for mock fleets)."""
     return _free_loopback_ports(count, socket.SOCK_DGRAM)
@@ -152,9 +161,24 @@ def free_loopback_tcp_ports(count: int) -> list[int]:
 
 
 def _free_loopback_ports(count: int, kind: socket.SocketKind) -> list[int]:
-    sockets = []
+    """Each port is bound to prove it free, all held until the last is found; the
+    search starts at a random port so that two processes picking at once (two test
+    workers, two ``gcs run --sim``) rarely try the same ones."""
+    sockets: list[socket.socket] = []
+    start = _pick.randrange(len(_PICK_PORTS))
     try:
-        for _ in range(count):
+        for i in range(len(_PICK_PORTS)):
+            if len(sockets) == count:
+                break
+            port = _PICK_PORTS[(start + i) % len(_PICK_PORTS)]
+            s = socket.socket(socket.AF_INET, kind)
+            try:
+                s.bind(("127.0.0.1", port))
+            except OSError:
+                s.close()
+                continue
+            sockets.append(s)
+        while len(sockets) < count:  # the whole window taken: any free port will do
             s = socket.socket(socket.AF_INET, kind)
             s.bind(("127.0.0.1", 0))
             sockets.append(s)

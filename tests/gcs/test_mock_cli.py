@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import asyncio
 import signal
-import socket
 import sys
 from pathlib import Path
 
@@ -12,6 +11,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.sitl_cli import main
+from vehicles.endpoints import free_loopback_tcp_ports
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -46,9 +46,8 @@ def test_bad_input_exits_2_with_one_line(
 
 
 def _free_tcp_base() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1]) // 10 * 10 - 100
+    """A base port whose vehicle 2 (base + 10), the one the test dials, is free."""
+    return free_loopback_tcp_ports(1)[0] - 10
 
 
 async def test_serves_over_tcp_and_stops_on_sigterm(mission_file: Path) -> None:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import random
-import socket
 from collections.abc import AsyncIterator, Callable
 from typing import Any
 
@@ -34,6 +33,7 @@ from sitl_mock.gridmap import GridMap
 from sitl_mock.mission_server import MissionProtocolSettings, MissionRequestStyle
 from sitl_mock.modes import CopterMode, RoverMode, VehicleKind
 from sitl_mock.vehicle import VehicleSettings
+from vehicles.endpoints import free_loopback_tcp_ports, free_loopback_udp_ports
 from vehicles.mission_items import MissionItem
 
 pytestmark = pytest.mark.timeout(60)
@@ -583,9 +583,7 @@ async def test_dead_vehicle_says_so_then_falls_silent() -> None:
 
 
 async def test_tcp_server_serves_several_clients() -> None:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
+    (port,) = free_loopback_tcp_ports(1)
     config = MockVehicleConfig(
         3, VehicleSettings(VehicleKind.ROVER), LinkSettings(f"tcpin:127.0.0.1:{port}")
     )
@@ -619,9 +617,7 @@ async def test_tcp_server_serves_several_clients() -> None:
 
 
 async def test_udpin_mock_is_silent_until_spoken_to() -> None:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
+    (port,) = free_loopback_udp_ports(1)
     config = MockVehicleConfig(
         2, VehicleSettings(VehicleKind.COPTER), LinkSettings(f"udpin:127.0.0.1:{port}")
     )

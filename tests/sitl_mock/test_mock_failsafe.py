@@ -15,7 +15,6 @@ import contextlib
 import dataclasses
 import math
 import random
-import socket
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,6 +40,7 @@ from sitl_mock.gridmap import GridMap
 from sitl_mock.modes import CopterMode, RoverMode, VehicleKind
 from sitl_mock.vehicle import Vehicle, VehicleSettings
 from sitl_mock.world import World
+from vehicles.endpoints import free_loopback_tcp_ports, free_loopback_udp_ports
 from vehicles.link import LinkSettings, VehicleLink
 from vehicles.mission_items import MissionItem
 from vehicles.modes import FlightMode
@@ -520,12 +520,6 @@ class Setup:
         return self.mission.geo.geo_to_cell(pos.lat_deg, pos.lon_deg)
 
 
-def _free_port(kind: int) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 @contextlib.asynccontextmanager
 async def fleet_of(
     tmp_path: Path, kind: str, vehicle: str, speed_m_s: float, failsafe: GcsFailsafe | None
@@ -535,10 +529,10 @@ async def fleet_of(
     mission = load_mission(write_mission(tmp_path, vehicle, speed_m_s))
     config = mock_fleet_configs(mission)[0]
     if kind == UDP:
-        port = _free_port(socket.SOCK_DGRAM)
+        (port,) = free_loopback_udp_ports(1)
         connection, gcs_address = f"udpout:127.0.0.1:{port}", f"udpin:127.0.0.1:{port}"
     else:
-        port = _free_port(socket.SOCK_STREAM)
+        (port,) = free_loopback_tcp_ports(1)
         connection, gcs_address = f"tcpin:127.0.0.1:{port}", f"tcp:127.0.0.1:{port}"
     vehicle_settings = config.vehicle
     if failsafe is not None:

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import socket
 from collections.abc import AsyncIterator
 from typing import TypeVar
 
@@ -33,21 +32,16 @@ from sitl_mock.fleet import MockFleet, MockVehicleConfig
 from sitl_mock.gridmap import GridMap
 from sitl_mock.modes import RoverMode, VehicleKind
 from sitl_mock.vehicle import VehicleSettings
+from vehicles.endpoints import free_loopback_udp_ports
 
 pytestmark = pytest.mark.timeout(60)
 
 GEO = GeoFrame(47.397742, 8.545594, 488.0, 1.0)
 
 
-def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @contextlib.asynccontextmanager
 async def mavsdk_against_mock() -> AsyncIterator[tuple[MockFleet, System]]:
-    port = _free_udp_port()
+    (port,) = free_loopback_udp_ports(1)
     grid = GridMap(obstacle=np.zeros((6, 8), dtype=bool), pads=((0, 0),))
     config = MockVehicleConfig(
         1, VehicleSettings(VehicleKind.ROVER), LinkSettings(f"udpout:127.0.0.1:{port}")

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import socket
 from collections.abc import AsyncIterator
 
 import pytest
@@ -28,6 +27,7 @@ from mavsdk.asyncio.plugins.telemetry_server import (  # noqa: E402
 from mavsdk.component_type import ComponentType  # noqa: E402
 
 from tests.vehicles.test_link_fake import sample_items  # noqa: E402
+from vehicles.endpoints import free_loopback_udp_ports  # noqa: E402
 from vehicles.link import LinkSettings, VehicleLink  # noqa: E402
 from vehicles.mission_items import MissionItem  # noqa: E402
 from vehicles.telemetry import Topic  # noqa: E402
@@ -35,15 +35,9 @@ from vehicles.telemetry import Topic  # noqa: E402
 pytestmark = pytest.mark.timeout(30)
 
 
-def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @contextlib.asynccontextmanager
 async def mavsdk_vehicle() -> AsyncIterator[tuple[Mavsdk, VehicleLink]]:
-    port = _free_udp_port()
+    (port,) = free_loopback_udp_ports(1)
     link = await VehicleLink.connect(
         f"udpin:127.0.0.1:{port}", settings=LinkSettings(heartbeat_period_s=0.2)
     )

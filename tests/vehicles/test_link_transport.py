@@ -9,7 +9,13 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from tests.vehicles.test_link_fake import FakeOptions, FakeVehicle
-from vehicles.endpoints import EndpointKind, parse_endpoint
+from vehicles import endpoints
+from vehicles.endpoints import (
+    EndpointKind,
+    free_loopback_tcp_ports,
+    free_loopback_udp_ports,
+    parse_endpoint,
+)
 from vehicles.errors import EndpointError, HeartbeatTimeout, LinkError
 from vehicles.link import LinkSettings, VehicleLink
 from vehicles.signing import SigningConfig
@@ -22,12 +28,6 @@ def _heartbeat() -> mavlink.MAVLink_heartbeat_message:
     return mavlink.MAVLink_heartbeat_message(
         mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 4, 4, 3
     )
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 @pytest.mark.parametrize(
@@ -90,6 +90,30 @@ def test_remote_allowed_explicitly() -> None:
     assert parse_endpoint("tcp:10.0.0.1:5760", allow_remote=True).host == "10.0.0.1"
 
 
+@pytest.mark.parametrize("kind", [socket.SOCK_DGRAM, socket.SOCK_STREAM])
+def test_free_ports_are_bindable_and_outside_the_ephemeral_range(kind: int) -> None:
+    """A port picked for a mock fleet must not be one the kernel may hand to any
+    socket bound to port 0 before the fleet binds it (the ephemeral range starts at
+    32768 on Linux)."""
+    pick = free_loopback_udp_ports if kind == socket.SOCK_DGRAM else free_loopback_tcp_ports
+    ports = pick(40)
+    assert len(set(ports)) == 40
+    assert all(1024 < p < 32768 for p in ports)
+    for port in ports:
+        with socket.socket(socket.AF_INET, kind) as s:
+            s.bind(("127.0.0.1", port))
+
+
+def test_free_ports_skip_the_ones_in_use(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With the only port of the window taken, another free one is found."""
+    (first,) = free_loopback_udp_ports(1)
+    monkeypatch.setattr(endpoints, "_PICK_PORTS", range(first, first + 1))
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as held:
+        held.bind(("127.0.0.1", first))
+        (other,) = free_loopback_udp_ports(1)  # the window is full: any free port
+    assert other != first
+
+
 async def test_udpin_silent_until_heard_then_replies_to_sender() -> None:
     async with await MavlinkTransport.open("udpin:127.0.0.1:0") as ours:
         assert ours.send(_heartbeat()) is False
@@ -133,7 +157,7 @@ async def test_recv_raises_once_closed() -> None:
 
 
 async def test_tcp_client_and_tcpin_server() -> None:
-    port = _free_port()
+    port = free_loopback_tcp_ports(1)[0]
     async with await MavlinkTransport.open(
         f"tcpin:127.0.0.1:{port}", source_system=1, source_component=1
     ) as vehicle:
@@ -152,7 +176,7 @@ async def test_tcp_client_and_tcpin_server() -> None:
 
 async def test_tcp_connection_refused_is_a_link_error() -> None:
     with pytest.raises(LinkError, match="cannot open"):
-        await MavlinkTransport.open(f"tcp:127.0.0.1:{_free_port()}")
+        await MavlinkTransport.open(f"tcp:127.0.0.1:{free_loopback_tcp_ports(1)[0]}")
 
 
 KEY = SigningConfig.from_passphrase("staying alive").key

@@ -16,7 +16,6 @@ import asyncio
 import contextlib
 import dataclasses
 import math
-import socket
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +34,7 @@ from sitl_mock.fleet import MockFleet, MockVehicleConfig
 from sitl_mock.mission_server import MissionProtocolSettings
 from sitl_mock.vehicle import Vehicle
 from vehicles.commands import CommandSettings
+from vehicles.endpoints import free_loopback_tcp_ports
 from vehicles.errors import CommandTimeout, HeartbeatTimeout, MissionError
 from vehicles.link import LinkSettings, VehicleLink
 from vehicles.mission_items import MissionItem, same_items
@@ -111,12 +111,6 @@ class Pair:
         return self.fleet.endpoints[SYSID]
 
 
-def _free_tcp_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def mock_config(mission: Mission, connection: str, **changes: Any) -> MockVehicleConfig:
     """The mission's vehicle as ``sitl-mock`` would build it, on ``connection``, with
     ``vehicle``/``battery``/``faults`` replaced and ``link_*`` fields of the link set.
@@ -169,7 +163,7 @@ async def linked(
             assert link.transport.local_address is not None
             connection = f"udpout:127.0.0.1:{link.transport.local_address[1]}"
         else:
-            connection = f"tcpin:127.0.0.1:{_free_tcp_port()}"
+            connection = f"tcpin:127.0.0.1:{free_loopback_tcp_ports(1)[0]}"
         config = mock_config(mission, connection, **changes)
         fleet = MockFleet(
             [config], mission.map, mission.geo, ScaledClock(SPEEDUP), seed=7, step_s=0.1

@@ -32,7 +32,7 @@ from gcs.sitl_cli import main as sitl_main
 from sitl_mock.fleet import MockFleet
 from sitl_mock.modes import RoverMode
 from vehicles.commands import CommandSettings
-from vehicles.endpoints import free_loopback_udp_ports
+from vehicles.endpoints import free_loopback_tcp_ports, free_loopback_udp_ports
 from vehicles.keyfile import KeyFile, KeyFileError, load_key_file, loose_permissions
 from vehicles.link import LinkSettings, VehicleLink
 from vehicles.signing import SigningConfig, apply_signing, signing_timestamp
@@ -82,12 +82,6 @@ def write_keys(tmp_path: Path, text: str | None = None, mode: int = 0o600) -> Pa
     path.write_text(text if text is not None else f'vehicles:\n  1: "passphrase:{PASSPHRASE}"\n')
     path.chmod(mode)
     return path
-
-
-def _free_tcp_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 # ---------------------------------------------------------------------- key files
@@ -286,7 +280,7 @@ async def signed_vehicle(
     """A signed mock rover configured as ``sitl-mock --keys`` does, and its signed link."""
     mission = load_mission(write_mission(tmp_path))
     keys = load_key_file(write_keys(tmp_path))
-    tcp_port = _free_tcp_port() if tcp else None
+    tcp_port = free_loopback_tcp_ports(1)[0] if tcp else None
     configs = mock_fleet_configs(mission, tcp_base_port=tcp_port, keys=keys)
     assert configs[0].link.signing_key == KEY
     gcs_side = f"tcp:127.0.0.1:{tcp_port}" if tcp else mission.fleet[0].connection
@@ -505,7 +499,7 @@ async def test_status_and_mission_sign_with_the_key_file(
     several = tmp_path / "several.yaml"
     several.write_text(f'vehicles:\n  1: "passphrase:{PASSPHRASE}"\n  2: "{KEY2_HEX}"\n')
     several.chmod(0o600)
-    tcp_port = _free_tcp_port()
+    (tcp_port,) = free_loopback_tcp_ports(1)
     configs = mock_fleet_configs(mission, tcp_base_port=tcp_port, keys=load_key_file(keys_path))
     endpoint = f"tcp:127.0.0.1:{tcp_port}"
     waypoints = tmp_path / "got.waypoints"

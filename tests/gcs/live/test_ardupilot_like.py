@@ -13,7 +13,6 @@ from __future__ import annotations
 import asyncio
 import math
 import os
-import socket
 import subprocess
 import sys
 import time
@@ -30,7 +29,7 @@ from gcs.log.reader import read_contents
 from sitl_mock.battery import Battery
 from sitl_mock.fleet import MockFleet
 from tests.gcs.live.test_mission import report, run_against_fleet, write_mission
-from vehicles.endpoints import free_loopback_udp_ports
+from vehicles.endpoints import free_loopback_tcp_ports, free_loopback_udp_ports
 
 pytestmark = pytest.mark.timeout(150)
 
@@ -184,9 +183,7 @@ async def test_sim_flies_every_connection_kind(tmp_path: Path) -> None:
     listening (udpin), sending to a listening vehicle (udpout), and dialling one that
     serves TCP as ArduPilot SITL does (the fleet must be up before that link opens)."""
     udp_in, udp_out = free_loopback_udp_ports(2)
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        tcp_port = probe.getsockname()[1]
+    (tcp_port,) = free_loopback_tcp_ports(1)
     connections = [f"udpin:127.0.0.1:{udp_in}", f"udpout:127.0.0.1:{udp_out}"]
     connections.append(f"tcp:127.0.0.1:{tcp_port}")
     mission = yard_mission(
