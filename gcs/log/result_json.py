@@ -12,7 +12,8 @@ from gcs.outcome.result import AgentTrace, BtpRecord, RunResult
 
 
 def _array_json(array: np.ndarray) -> dict[str, Any]:
-    return {"dtype": str(array.dtype), "data": array.tolist()}
+    """The array as nested lists once encoded (by orjson, from the array's memory)."""
+    return {"dtype": str(array.dtype), "data": np.ascontiguousarray(array)}
 
 
 def _array_from(value: dict[str, Any]) -> np.ndarray:
@@ -31,11 +32,12 @@ def _cell(value: Sequence[int]) -> Cell:
 
 
 def result_to_json(result: RunResult, *, traces: bool = True) -> dict[str, Any]:
-    """Every field of a RunResult, JSON-ready (tuples stand for arrays: the encoder takes
-    them as they are, where copying each cell of every track into a list cost more than
-    encoding it); :func:`result_from_json` inverts it exactly. ``traces`` False leaves
-    out each agent's track and battery at every step, for a log that holds them already
-    (an offline run's ``/fleet/states``): the reader puts them back from there."""
+    """Every field of a RunResult, ready for orjson with ``OPT_SERIALIZE_NUMPY`` (tuples
+    and numpy arrays stand for arrays: the encoder takes them as they are, where copying
+    each cell of every track or map into a list cost more than encoding it);
+    :func:`result_from_json` inverts it exactly. ``traces`` False leaves out each agent's
+    track and battery at every step, for a log that holds them already (an offline
+    run's ``/fleet/states``): the reader puts them back from there."""
     return {
         "mission": result.mission,
         "shape": list(result.shape),

@@ -4,12 +4,12 @@ entities (the vehicles' tracks, the BTPs), and the map as a ``foxglove.Grid``.""
 from __future__ import annotations
 
 import base64
-import json
 import math
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+import orjson
 
 from core.cells import Cell
 from core.geo import GeoFrame
@@ -61,8 +61,8 @@ def track_entity(
         "indices": [],
     }
     metadata = [{"key": "sysid", "value": str(sysid)}]
-    text = json.dumps(_entity(ns, f"track/{sysid}", lines=[line], metadata=metadata))
-    return text.replace('"points": []', f'"points":[{",".join(track)}]', 1)
+    text = orjson.dumps(_entity(ns, f"track/{sysid}", lines=[line], metadata=metadata)).decode()
+    return text.replace('"points":[]', f'"points":[{",".join(track)}]', 1)
 
 
 def btps_entity(
@@ -83,7 +83,7 @@ def btps_entity(
                 "color": {"r": 0.9, "g": 0.1, "b": 0.1, "a": 0.9},
             }
         )
-    cells_json = json.dumps([list(c) for c in cells], separators=(",", ":"))
+    cells_json = orjson.dumps([list(c) for c in cells]).decode()
     return _entity(ns, "btps", spheres=spheres, metadata=[{"key": "cells", "value": cells_json}])
 
 
@@ -91,31 +91,60 @@ def btps_entity(
 _CODE_AND_RGBA = np.concatenate(
     [np.arange(len(GRID_RGBA), dtype=np.uint8)[:, None], GRID_RGBA], axis=1
 )
+_STRIDE = _CODE_AND_RGBA.shape[1]
+#: Cells in a group whose bytes are a whole number of base64 quanta (3 bytes, 4 letters).
+_GROUP = 3
+_GROUP_LETTERS = _GROUP * _STRIDE * 4 // 3
 
 
-def grid_message(ns: int, belief: np.ndarray, covered: np.ndarray, cell_size_m: float) -> bytes:
-    """The map as a ``foxglove.Grid`` in JSON: each cell's code and its colour. The
-    data (megabytes on a large map) is spliced into the text, not run through the JSON
-    encoder, which would scan it for characters to escape."""
-    codes = grid_codes(belief, covered)
-    rows, cols = codes.shape
-    cells = _CODE_AND_RGBA[np.flipud(codes)]  # Foxglove's first row is the southern one
-    data = cells.tobytes()
-    stride = cells.shape[2]
-    names = ("state", "red", "green", "blue", "alpha")
-    message = {
-        "timestamp": stamp(ns),
-        "frame_id": MAP_FRAME,
-        "pose": {
-            "position": {"x": 0.0, "y": -rows * cell_size_m, "z": 0.0},
-            "orientation": IDENTITY,
-        },
-        "column_count": cols,
-        "cell_size": {"x": cell_size_m, "y": cell_size_m},
-        "row_stride": cols * stride,
-        "cell_stride": stride,
-        "fields": [{"name": n, "offset": k, "type": 1} for k, n in enumerate(names)],
-        "data": "",
-    }
-    head, tail = json.dumps(message, separators=(",", ":")).encode().split(b'"data":""')
-    return b"".join((head, b'"data":"', base64.b64encode(data), b'"', tail))
+class GridEncoder:
+    """The map as a ``foxglove.Grid`` in JSON: each cell's code and its colour, base64.
+
+    A snapshot of a million-cell map is 6.7 MB of text, and most of it is as it was in
+    the last one: the text is kept, and only the groups of three cells (15 bytes, 20
+    letters of base64) holding a changed cell are encoded again. The data is spliced
+    into the message, not run through a JSON encoder, which would scan it."""
+
+    def __init__(self, cell_size_m: float) -> None:
+        self.cell_size_m = cell_size_m
+        #: The last snapshot's codes, south row first, flat; and its text, a group a row.
+        self._codes: np.ndarray | None = None
+        self._letters = np.zeros((0, _GROUP_LETTERS), dtype=np.uint8)
+
+    def message(self, ns: int, belief: np.ndarray, covered: np.ndarray) -> bytes:
+        codes = grid_codes(belief, covered)
+        rows, cols = codes.shape
+        flat = np.flipud(codes).ravel()  # Foxglove's first row is the southern one
+        whole = flat.size // _GROUP * _GROUP
+        if self._codes is None or self._codes.shape != flat.shape:
+            self._letters = _base64_rows(flat[:whole])
+        else:
+            groups = np.unique(np.flatnonzero(flat[:whole] != self._codes[:whole]) // _GROUP)
+            if groups.size:
+                cells = (groups[:, None] * _GROUP + np.arange(_GROUP)).ravel()
+                self._letters[groups] = _base64_rows(flat[cells])
+        self._codes = flat
+        rest = base64.b64encode(_CODE_AND_RGBA[flat[whole:]].tobytes())
+        names = ("state", "red", "green", "blue", "alpha")
+        message = {
+            "timestamp": stamp(ns),
+            "frame_id": MAP_FRAME,
+            "pose": {
+                "position": {"x": 0.0, "y": -rows * self.cell_size_m, "z": 0.0},
+                "orientation": IDENTITY,
+            },
+            "column_count": cols,
+            "cell_size": {"x": self.cell_size_m, "y": self.cell_size_m},
+            "row_stride": cols * _STRIDE,
+            "cell_stride": _STRIDE,
+            "fields": [{"name": n, "offset": k, "type": 1} for k, n in enumerate(names)],
+            "data": "",
+        }
+        head, tail = orjson.dumps(message).split(b'"data":""')
+        return b"".join((head, b'"data":"', self._letters.data, rest, b'"', tail))
+
+
+def _base64_rows(codes: np.ndarray) -> np.ndarray:
+    """The base64 letters of whole groups of cells' bytes, a group a row."""
+    letters = base64.b64encode(_CODE_AND_RGBA[codes].tobytes())
+    return np.frombuffer(letters, dtype=np.uint8).reshape(-1, _GROUP_LETTERS).copy()

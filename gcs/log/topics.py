@@ -281,7 +281,8 @@ def grid_codes(belief: np.ndarray, covered: np.ndarray) -> np.ndarray:
 
 
 def codes_from_grid(message: dict[str, Any]) -> np.ndarray:
-    """Invert :func:`grid_message`'s data back to (rows north-first) uint8 codes."""
+    """The (rows north-first) uint8 codes in a map message's data
+    (:class:`gcs.log.scenes.GridEncoder`)."""
     raw = np.frombuffer(base64.b64decode(message["data"]), dtype=np.uint8)
     cols = int(message["column_count"])
     cells = raw.reshape(-1, cols, int(message["cell_stride"]))
