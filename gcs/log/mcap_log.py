@@ -456,11 +456,9 @@ class McapMissionLog:
             "mode": [list(step.modes) for _, step in steps],
         }
         self._json(FLEET_STATES_TOPIC, FLEET_STATES_SCHEMA, t_s, states)
-        # Each vehicle's cells through the steps: the steps' rows, transposed.
-        tracks = zip(*(step.cells for _, step in steps), strict=True)
-        for k, (sysid, cells) in enumerate(zip(last.sysids, tracks, strict=True)):
-            vehicle = self._vehicle(sysid)
-            self._track_through(vehicle, cells)
+        vehicles = [self._vehicle(sysid) for sysid in last.sysids]
+        self._tracks_through(vehicles, grid)
+        for k, (sysid, vehicle) in enumerate(zip(last.sysids, vehicles, strict=True)):
             here = (int(last.cells[k][0]), int(last.cells[k][1]))
             self._state(t_s, sysid, here, last.battery_pct[k], last.modes[k])
             shown = (*here, None, None, vehicle.heading_deg)
@@ -500,6 +498,51 @@ class McapMissionLog:
         )
         self._write(f"/vehicle/{vehicle.sysid}/pose", "foxglove.PoseInFrame", t_s, pose.encode())
         self._track_point(vehicle, north, east)
+
+    def _tracks_through(self, vehicles: Sequence[_Vehicle], grid: np.ndarray) -> None:
+        """Every vehicle's track on through its cells at successive steps (``grid``: steps
+        by vehicles by row and column), as :meth:`_track_through` takes them one by one,
+        with the turns found for all at once: a move turns where it differs from the
+        vehicle's move before it."""
+        if any(v.last_cell is None for v in vehicles):  # the first steps: no move before
+            for k, vehicle in enumerate(vehicles):
+                self._track_through(vehicle, [(int(r), int(c)) for r, c in grid[:, k]])
+            return
+        before = np.array([[v.last_cell for v in vehicles]], dtype=np.int64)
+        cells = np.concatenate([before, grid])
+        moves = np.diff(cells, axis=0)
+        moved = moves.any(axis=2)
+        # The move before each step's: the last one made at an earlier step, or the
+        # vehicle's last move from the steps before these ((0, 0) for none: it differs
+        # from every move).
+        first = np.array([v.last_move or (0, 0) for v in vehicles], dtype=np.int64)
+        steps = np.arange(len(moves))[:, None]
+        made = np.maximum.accumulate(np.where(moved, steps, -1), axis=0)
+        previous_step = np.concatenate([np.full((1, len(vehicles)), -1), made[:-1]])
+        columns = np.arange(len(vehicles))
+        previous = np.where(
+            (previous_step >= 0)[:, :, None], moves[previous_step, columns], first[None]
+        )
+        turns = moved & (moves != previous).any(axis=2)
+        # The cell each turn starts from, vehicle by vehicle, in the order of the steps.
+        at_vehicle, at_step = np.nonzero(turns.T)
+        corners = cells[at_step, at_vehicle].tolist()
+        counts = np.bincount(at_vehicle, minlength=len(vehicles)).tolist()
+        ends = cells[-1].tolist()
+        last_moves = np.where((made[-1] >= 0)[:, None], moves[made[-1], columns], first)
+        centre = self._mission.geo.cell_centre_local
+        start = 0
+        for k, vehicle in enumerate(vehicles):
+            for corner in corners[start : start + counts[k]]:
+                self._track_point(vehicle, *centre(corner))
+            start += counts[k]
+            end = (ends[k][0], ends[k][1])
+            self._track_point(vehicle, *centre(end))
+            move = (int(last_moves[k][0]), int(last_moves[k][1]))
+            if move != (0, 0):
+                vehicle.heading_deg = move_heading((0, 0), move) or vehicle.heading_deg
+                vehicle.last_move = move
+            vehicle.last_cell = end
 
     def _track_through(self, vehicle: _Vehicle, cells: Sequence[Cell]) -> None:
         """A vehicle's track on through ``cells`` (its cell at successive steps): a point
