@@ -529,17 +529,20 @@ class McapMissionLog:
         corners = cells[at_step, at_vehicle].tolist()
         counts = np.bincount(at_vehicle, minlength=len(vehicles)).tolist()
         ends = cells[-1].tolist()
-        last_moves = np.where((made[-1] >= 0)[:, None], moves[made[-1], columns], first)
+        last_moves = np.where((made[-1] >= 0)[:, None], moves[made[-1], columns], first).tolist()
         centre = self._mission.geo.cell_centre_local
         start = 0
-        for k, vehicle in enumerate(vehicles):
+        # A vehicle that stood still through the steps (most of a crowd held back in a
+        # maze) has nothing new: no point, no turn, the same heading.
+        for k in np.flatnonzero(moved.any(axis=0)).tolist():
+            vehicle = vehicles[k]
             for corner in corners[start : start + counts[k]]:
                 self._track_point(vehicle, *centre(corner))
             start += counts[k]
             end = (ends[k][0], ends[k][1])
             self._track_point(vehicle, *centre(end))
-            move = (int(last_moves[k][0]), int(last_moves[k][1]))
-            if move != (0, 0):
+            move = (last_moves[k][0], last_moves[k][1])
+            if move != vehicle.last_move:
                 vehicle.heading_deg = move_heading((0, 0), move) or vehicle.heading_deg
                 vehicle.last_move = move
             vehicle.last_cell = end

@@ -59,8 +59,7 @@ def result_to_json(result: RunResult, *, traces: bool = True) -> dict[str, Any]:
             for a in result.agents
         ],
         "btps": [
-            [list(b.cell), b.detected_by, b.detected_at, b.covered_by, b.covered_at]
-            for b in result.btps
+            (b.cell, b.detected_by, b.detected_at, b.covered_by, b.covered_at) for b in result.btps
         ],
         "covered_per_iteration": result.covered_per_iteration,
         "iterations": result.iterations,
