@@ -115,6 +115,10 @@ class LogSink(Protocol):
     def publish(self, topic: str, schema: str, t_s: float, data: bytes) -> None: ...
 
 
+#: A vehicle's cell, battery (%) and mode, as ``/vehicle/N/battery`` holds them.
+_State = tuple[Cell, float, str]
+
+
 @dataclass
 class _Vehicle:
     """What the log keeps per vehicle between calls."""
@@ -131,6 +135,10 @@ class _Vehicle:
     last_move: tuple[int, int] | None = None
     last_fix: tuple[Any, ...] | None = None
     heading_deg: float = 0.0
+    #: The last ``/vehicle/N/battery`` state written of an offline run, and the last
+    #: time it was seen since, unchanged and not written again.
+    state: _State | None = None
+    state_seen_t: float | None = None
 
 
 @dataclass(frozen=True)
@@ -457,15 +465,34 @@ class McapMissionLog:
         }
         self._json(FLEET_STATES_TOPIC, FLEET_STATES_SCHEMA, t_s, states)
         vehicles = [self._vehicle(sysid) for sysid in last.sysids]
-        self._tracks_through(vehicles, grid)
-        for k, (sysid, vehicle) in enumerate(zip(last.sysids, vehicles, strict=True)):
+        self._tracks_through(vehicles, [step.cells for _, step in steps], grid)
+        for k, vehicle in enumerate(vehicles):
             here = (int(last.cells[k][0]), int(last.cells[k][1]))
-            self._state(t_s, sysid, here, last.battery_pct[k], last.modes[k])
+            self._state_if_changed(t_s, vehicle, (here, last.battery_pct[k], last.modes[k]))
             shown = (*here, None, None, vehicle.heading_deg)
             if shown != vehicle.last_fix:
                 vehicle.last_fix = shown
                 self._position(t_s, vehicle, here, None, None)
         self._scenes_due(t_s)
+
+    def _state_if_changed(self, t_s: float, vehicle: _Vehicle, state: _State) -> None:
+        """``/vehicle/N/battery`` of an offline run, written when it changes: most of a
+        crowd in a maze waits for hundreds of steps. Before a change, the state it
+        changes from is written again at the last time it was seen, so that a plot of
+        it steps where the state did rather than sloping across the wait."""
+        if state == vehicle.state:
+            vehicle.state_seen_t = t_s
+            return
+        self._held_state(vehicle)
+        vehicle.state = state
+        self._state(t_s, vehicle.sysid, *state)
+
+    def _held_state(self, vehicle: _Vehicle) -> None:
+        """The vehicle's state again at the last time it was seen unchanged, if later
+        than it was written."""
+        if vehicle.state is not None and vehicle.state_seen_t is not None:
+            self._state(vehicle.state_seen_t, vehicle.sysid, *vehicle.state)
+        vehicle.state_seen_t = None
 
     def _position(
         self,
@@ -499,53 +526,23 @@ class McapMissionLog:
         self._write(f"/vehicle/{vehicle.sysid}/pose", "foxglove.PoseInFrame", t_s, pose.encode())
         self._track_point(vehicle, north, east)
 
-    def _tracks_through(self, vehicles: Sequence[_Vehicle], grid: np.ndarray) -> None:
-        """Every vehicle's track on through its cells at successive steps (``grid``: steps
-        by vehicles by row and column), as :meth:`_track_through` takes them one by one,
-        with the turns found for all at once: a move turns where it differs from the
-        vehicle's move before it."""
-        if any(v.last_cell is None for v in vehicles):  # the first steps: no move before
-            for k, vehicle in enumerate(vehicles):
-                self._track_through(vehicle, [(int(r), int(c)) for r, c in grid[:, k]])
-            return
-        before = np.array([[v.last_cell for v in vehicles]], dtype=np.int64)
-        cells = np.concatenate([before, grid])
-        moves = np.diff(cells, axis=0)
-        moved = moves.any(axis=2)
-        # The move before each step's: the last one made at an earlier step, or the
-        # vehicle's last move from the steps before these ((0, 0) for none: it differs
-        # from every move).
-        first = np.array([v.last_move or (0, 0) for v in vehicles], dtype=np.int64)
-        steps = np.arange(len(moves))[:, None]
-        made = np.maximum.accumulate(np.where(moved, steps, -1), axis=0)
-        previous_step = np.concatenate([np.full((1, len(vehicles)), -1), made[:-1]])
-        columns = np.arange(len(vehicles))
-        previous = np.where(
-            (previous_step >= 0)[:, :, None], moves[previous_step, columns], first[None]
-        )
-        turns = moved & (moves != previous).any(axis=2)
-        # The cell each turn starts from, vehicle by vehicle, in the order of the steps.
-        at_vehicle, at_step = np.nonzero(turns.T)
-        corners = cells[at_step, at_vehicle].tolist()
-        counts = np.bincount(at_vehicle, minlength=len(vehicles)).tolist()
-        ends = cells[-1].tolist()
-        last_moves = np.where((made[-1] >= 0)[:, None], moves[made[-1], columns], first).tolist()
-        centre = self._mission.geo.cell_centre_local
-        start = 0
-        # A vehicle that stood still through the steps (most of a crowd held back in a
-        # maze) has nothing new: no point, no turn, the same heading.
-        for k in np.flatnonzero(moved.any(axis=0)).tolist():
-            vehicle = vehicles[k]
-            for corner in corners[start : start + counts[k]]:
-                self._track_point(vehicle, *centre(corner))
-            start += counts[k]
-            end = (ends[k][0], ends[k][1])
-            self._track_point(vehicle, *centre(end))
-            move = (last_moves[k][0], last_moves[k][1])
-            if move != vehicle.last_move:
-                vehicle.heading_deg = move_heading((0, 0), move) or vehicle.heading_deg
-                vehicle.last_move = move
-            vehicle.last_cell = end
+    def _tracks_through(
+        self, vehicles: Sequence[_Vehicle], cells: Sequence[Sequence[Cell]], grid: np.ndarray
+    ) -> None:
+        """Every vehicle's track on through its cells at successive steps (``cells``, each
+        step's; ``grid`` the same as steps by vehicles by row and column). A vehicle that
+        stood still through them all on the cell it was on (most of a crowd held back in
+        a maze) is passed over: found for all at once, as walking each one's cells
+        costs more than the rest."""
+        if any(v.last_cell is None for v in vehicles):  # the first steps
+            moving: Sequence[int] = range(len(vehicles))
+        else:
+            before = np.array([v.last_cell for v in vehicles], dtype=np.int64)
+            moving = np.flatnonzero((grid != before).any(axis=(0, 2))).tolist()
+        if moving:
+            tracks = list(zip(*cells, strict=True))  # the steps' rows, transposed
+            for k in moving:
+                self._track_through(vehicles[k], tracks[k])
 
     def _track_through(self, vehicle: _Vehicle, cells: Sequence[Cell]) -> None:
         """A vehicle's track on through ``cells`` (its cell at successive steps): a point
@@ -662,6 +659,8 @@ class McapMissionLog:
 
     def _emit_pending(self, t_s: float) -> None:
         self._write_steps()
+        for vehicle in self._vehicles.values():
+            self._held_state(vehicle)
         if self._tracks_dirty:
             self._emit_tracks(t_s)
         if self._btps is not None:

@@ -133,3 +133,36 @@ def test_a_track_goes_through_every_cell_with_a_point_only_where_it_turns(
             straight_on = (b[0] - a[0]) * (c[1] - b[1]) == (b[1] - a[1]) * (c[0] - b[0])
             same_way = (b[0] - a[0]) * (c[0] - b[0]) + (b[1] - a[1]) * (c[1] - b[1]) > 0
             assert not (straight_on and same_way), (a, b, c)
+
+
+class _States:
+    """A live view that keeps every ``/vehicle/1/battery`` message."""
+
+    def __init__(self) -> None:
+        self.states: list[dict[str, Any]] = []
+
+    def publish(self, topic: str, schema: str, t_s: float, data: bytes) -> None:
+        if topic == "/vehicle/1/battery":
+            self.states.append(json.loads(data))
+
+
+def test_a_waiting_vehicles_state_is_written_where_it_changes() -> None:
+    """An offline run's ``/vehicle/N/battery`` skips the messages of a wait, yet read as
+    a value held until the next message it gives the state at every message's time,
+    and the state before a change is written again at the wait's last message."""
+    cells = [(5, 5)] * 100 + [(5, 5 + k) for k in range(1, 11)] + [(5, 15)] * 60
+    battery = [80.0] * 100 + [80.0 - k for k in range(1, 11)] + [70.0] * 60
+    sink = _States()
+    mission = LoggedMission("wait", (30, 30), 1.0, (5, 5), GeoFrame(50.0, 8.0, 0.0, 1.0), 20.0)
+    log = McapMissionLog(None, mission, LogSettings(steps_per_message=5), sinks=[sink])
+    for t, (cell, pct) in enumerate(zip(cells, battery, strict=True)):
+        log.fleet_step(t, FleetStep([1], [cell], [pct], ["exploring"]))
+    log.close()
+    times = [s["t_s"] for s in sink.states]
+    assert times == sorted(times)
+    assert len(sink.states) < len(cells) // 5 / 2
+    for t in range(4, len(cells), 5):  # the last step of each message
+        held = [s for s in sink.states if s["t_s"] <= t][-1]
+        assert (tuple(held["cell"]), held["battery_pct"]) == (cells[t], battery[t]), t
+    assert sink.states[-1]["t_s"] == len(cells) - 1
+    assert 99 in times  # the wait's last message, before the first move
