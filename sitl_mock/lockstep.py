@@ -108,15 +108,18 @@ class LockstepWorld:
         if agent not in self._queue:
             self._queue.append(agent)
 
-    def end_iteration(self) -> None:
-        """Charge the agents that asked, at most ``charging_slots`` of them."""
+    def end_iteration(self) -> list[int]:
+        """Charge the agents that asked, at most ``charging_slots`` of them; those
+        charged (the only batteries that change but by a move)."""
         if not self._queue:  # nobody charging: most iterations
             self._requested.clear()
-            return
+            return []
         slots = len(self._queue) if self.charging_slots is None else self.charging_slots
+        charged = []
         for agent in self._queue[:slots]:
             if agent not in self._requested:
                 continue
+            charged.append(agent)
             rate = self._bodies[agent].charge_pct_per_step or self.charge_pct_per_step
             if rate is None:
                 self.battery[agent] = 100.0
@@ -127,6 +130,7 @@ class LockstepWorld:
         ]:
             self._leave_queue(agent)
         self._requested.clear()
+        return charged
 
     def _leave_queue(self, agent: int) -> None:
         if agent in self._queue:

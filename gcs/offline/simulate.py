@@ -173,8 +173,9 @@ class _LockstepRun:
         self.t0 = time.perf_counter()
         self.planner_s = 0.0
         self.coordinator = self._start_planner()
-        self.tracks: dict[int, list[Cell]] = {i: [grid.charger] for i in ids}
-        self.batteries: dict[int, list[float]] = {i: [100.0] for i in ids}
+        assert list(self.world.position) == ids and list(self.world.battery) == ids
+        self.cell_rows: list[tuple[Cell, ...]] = [(grid.charger,) * len(ids)]
+        self.battery_rows: list[tuple[float, ...]] = [(100.0,) * len(ids)]
         self.path_moves = dict.fromkeys(ids, 0)
         self.homing_moves = dict.fromkeys(ids, 0)
         self.path_steps = PathSteps(ids)
@@ -215,49 +216,61 @@ class _LockstepRun:
         return iteration
 
     def _act(self, now: float) -> None:
-        """Every agent whose turn it is decides once, and the world carries it out."""
+        """Every agent whose turn it is decides once, and the world carries it out.
+
+        Most agent-steps of a crowd are waits, so the loop does as little as it can
+        for one: the clock is read around the world's work on a move, not around
+        every decision, and the planner's time is the loop's less that."""
         coordinator, world, ready_at, pace = self.coordinator, self.world, self.ready_at, self.pace
+        decide, mode, dead, step_s = coordinator.decide, coordinator.mode, world.dead, pace.step
         # Looked up once: the loop below makes three look-ups of enum members per agent-step.
         move, charge, homing_mode = ActionKind.MOVE, ActionKind.CHARGE, AgentMode.HOMING
+        due, next_tick = now + 1e-9, now + pace.tick_s
+        outside = 0.0
+        start = time.perf_counter()
         for i in self.ids:
-            if i in world.dead or ready_at[i] > now + 1e-9:
+            if ready_at[i] > due or i in dead:
                 continue
-            tick = time.perf_counter()
-            homing = coordinator.mode(i) == homing_mode or coordinator.homeward
-            action = coordinator.decide(i)
-            self.planner_s += time.perf_counter() - tick
-            if action.kind == move:
-                assert action.to is not None
-                world.move(i, action.to)
+            homing = mode(i) == homing_mode or coordinator.homeward
+            action = decide(i)
+            kind = action.kind
+            if kind == move:
+                to = action.to
+                assert to is not None
+                tick = time.perf_counter()
+                world.move(i, to)
                 if homing:
                     self.homing_moves[i] += 1
                 else:
                     self.path_moves[i] += 1
                 self.path_steps.moved(i, coordinator.heading_for(i))
-                tick = time.perf_counter()
-                if i in world.dead:
+                sensed = None if i in dead else world.sense(to)
+                outside += time.perf_counter() - tick
+                if sensed is None:
                     coordinator.mark_lost(i)
                 else:
-                    coordinator.observe(i, action.to, world.sense(action.to), world.battery[i])
-                self.planner_s += time.perf_counter() - tick
-            if action.kind == charge:
+                    coordinator.observe(i, to, sensed, world.battery[i])
+            elif kind == charge:
                 world.request_charge(i)
-                ready_at[i] = now + pace.tick_s
-            else:
-                ready_at[i] = max(ready_at[i] + pace.step[i], now + pace.tick_s)
+                ready_at[i] = next_tick
+                continue
+            ready_at[i] = max(ready_at[i] + step_s[i], next_tick)
+        self.planner_s += time.perf_counter() - start - outside
 
     def _end_iteration(self, iteration: int) -> None:
         """Batteries told to the planner; tracks, coverage, events and the log kept."""
         coordinator, world = self.coordinator, self.world
-        world.end_iteration()
+        battery = world.battery
+        # A battery changes by a move, which the planner observed with it, or by a charge.
+        charged = world.end_iteration()
         tick = time.perf_counter()
-        for i in self.ids:
-            if i not in world.dead:
-                coordinator.update_battery(i, world.battery[i])
+        for i in charged:
+            coordinator.update_battery(i, battery[i])
         self.planner_s += time.perf_counter() - tick
-        for i in self.ids:
-            self.tracks[i].append(world.position[i])
-            self.batteries[i].append(world.battery[i])
+        # Every agent's cell and battery, as a row per iteration (the world keeps them
+        # in the order of ``ids``): turned into each agent's track at the end.
+        self.cell_rows.append(tuple(world.position.values()))
+        self.battery_rows.append(tuple(battery.values()))
         self.covered_series.append(coordinator.belief.covered_count)
         # Ask before recording: the first time it holds, the planner emits the
         # coverage-complete event, which belongs to this iteration.
@@ -291,11 +304,11 @@ class _LockstepRun:
 
     def _log_state(self, iteration: int) -> None:
         assert self.log is not None
-        ids, world, mode = self.ids, self.world, self.coordinator.mode
+        ids, mode = self.ids, self.coordinator.mode
         step = FleetStep(
             sysids=ids,
-            cells=[world.position[i] for i in ids],
-            battery_pct=[world.battery[i] for i in ids],
+            cells=self.cell_rows[-1],
+            battery_pct=self.battery_rows[-1],
             modes=[mode(i).value for i in ids],
         )
         self.log.fleet_step(iteration, step)
@@ -317,18 +330,20 @@ class _LockstepRun:
 
     def _agents(self) -> tuple[AgentTrace, ...]:
         cell_m, coordinator = self.mission.cell_size_m, self.coordinator
+        tracks = zip(*self.cell_rows, strict=True)
+        batteries = zip(*self.battery_rows, strict=True)
         return tuple(
             AgentTrace(
                 id=i,
-                track=tuple(self.tracks[i]),
-                battery_pct=tuple(self.batteries[i]),
+                track=track,
+                battery_pct=battery,
                 path_m=self.path_moves[i] * cell_m,
                 homing_m=self.homing_moves[i] * cell_m,
                 charges=coordinator.charges(i),
-                min_battery_pct=min(self.batteries[i]),
+                min_battery_pct=min(battery),
                 lost=i in self.world.dead or coordinator.mode(i) == AgentMode.LOST,
             )
-            for i in self.ids
+            for i, track, battery in zip(self.ids, tracks, batteries, strict=True)
         )
 
     def _extra(self, iteration: int) -> dict[str, float | int | str]:
