@@ -52,6 +52,10 @@ GOAL_WEB_RATIO = 1.10
 #: maps (rooms and corridors, open ground): the maze, whose ways are 7 times the
 #: Manhattan distance.
 STRETCH_KINDS = frozenset({"rooms"})
+#: The maze's own goal (the stretch kinds, at the goal's size and crowd): under these
+#: wall seconds, walking under these metres per free cell (a crowd that divides the
+#: maze's branches well, where one that does not walks it several times over).
+GOAL_MAZE_WALL_S, GOAL_MAZE_M_PER_CELL = 100.0, 2.5
 
 
 # -- the offline planner ---------------------------------------------------------------
@@ -235,6 +239,21 @@ def goals(planner_rows: list[dict[str, Any]], live_rows: list[dict[str, Any]]) -
                 stretch=r["kind"] in STRETCH_KINDS,
             )
         )
+        if r["kind"] in STRETCH_KINDS:
+            found.append(
+                _judged(
+                    f"planner, the maze ({r['kind']} {GOAL_SIDE}x{GOAL_SIDE}), {GOAL_AGENTS} agents"
+                    + settings_text(r.get("settings", {}))
+                    + f": complete, none lost, under {GOAL_MAZE_WALL_S:g} s and "
+                    + f"{GOAL_MAZE_M_PER_CELL:g} m per free cell",
+                    r,
+                    lambda r: (
+                        f"{r['wall_s']:.1f} s, {r['path_per_free_cell']:.3f} m per free cell",
+                        r["wall_s"] < GOAL_MAZE_WALL_S
+                        and r["path_per_free_cell"] < GOAL_MAZE_M_PER_CELL,
+                    ),
+                )
+            )
     for r in live_rows:
         if r["vehicles"] != GOAL_VEHICLES or r.get("web_clients"):
             continue
