@@ -176,6 +176,7 @@ class _LockstepRun:
         assert list(self.world.position) == ids and list(self.world.battery) == ids
         self.cell_rows: list[tuple[Cell, ...]] = [(grid.charger,) * len(ids)]
         self.battery_rows: list[tuple[float, ...]] = [(100.0,) * len(ids)]
+        self.lowest_battery = dict.fromkeys(ids, 100.0)
         self.path_moves = dict.fromkeys(ids, 0)
         self.homing_moves = dict.fromkeys(ids, 0)
         self.path_steps = PathSteps(ids)
@@ -223,6 +224,7 @@ class _LockstepRun:
         every decision, and the planner's time is the loop's less that."""
         coordinator, world, ready_at, pace = self.coordinator, self.world, self.ready_at, self.pace
         decide, mode, dead, step_s = coordinator.decide, coordinator.mode, world.dead, pace.step
+        lowest = self.lowest_battery
         # Looked up once: the loop below makes three look-ups of enum members per agent-step.
         move, charge, homing_mode = ActionKind.MOVE, ActionKind.CHARGE, AgentMode.HOMING
         due, next_tick = now + 1e-9, now + pace.tick_s
@@ -245,11 +247,14 @@ class _LockstepRun:
                     self.path_moves[i] += 1
                 self.path_steps.moved(i, coordinator.heading_for(i))
                 sensed = None if i in dead else world.sense(to)
+                battery = world.battery[i]
+                if battery < lowest[i]:  # a battery falls only by a move
+                    lowest[i] = battery
                 outside += time.perf_counter() - tick
                 if sensed is None:
                     coordinator.mark_lost(i)
                 else:
-                    coordinator.observe(i, to, sensed, world.battery[i])
+                    coordinator.observe(i, to, sensed, battery)
             elif kind == charge:
                 world.request_charge(i)
                 ready_at[i] = next_tick
@@ -340,7 +345,7 @@ class _LockstepRun:
                 path_m=self.path_moves[i] * cell_m,
                 homing_m=self.homing_moves[i] * cell_m,
                 charges=coordinator.charges(i),
-                min_battery_pct=min(battery),
+                min_battery_pct=self.lowest_battery[i],
                 lost=i in self.world.dead or coordinator.mode(i) == AgentMode.LOST,
             )
             for i, track, battery in zip(self.ids, tracks, batteries, strict=True)

@@ -115,7 +115,9 @@ class CompiledSearch(Confirmations):
             if settled is not None and settled.goal >= 0:
                 settled.forget()
             found = self._search(request, energy, used)
-            if found is not None and rival_first(request, found, self.belief.cell(found.cell)):
+            if found is None:
+                return None
+            if rival_first(request, found, self.belief.cell(found.cell), nearest_manhattan):
                 return HELD_BACK
             return found
         on_way = hint is not None and settled.goal == hint.goal
