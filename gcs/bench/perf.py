@@ -223,37 +223,7 @@ def goals(planner_rows: list[dict[str, Any]], live_rows: list[dict[str, Any]]) -
     for r in planner_rows:
         if (r["size"], r["agents"]) != (GOAL_SIDE, GOAL_AGENTS) or r.get("log"):
             continue  # the goal is the planner's; the log's is judged on its pairs
-        what = (
-            f"planner, {r['kind']} {GOAL_SIDE}x{GOAL_SIDE}, {GOAL_AGENTS} agents"
-            + settings_text(r.get("settings", {}))
-            + f": complete, none lost, under {GOAL_WALL_S:g} s and {GOAL_PEAK_MB} MB"
-        )
-        found.append(
-            _judged(
-                what,
-                r,
-                lambda r: (
-                    f"{r['wall_s']:.1f} s, {r['peak_mb']} MB",
-                    r["wall_s"] < GOAL_WALL_S and r["peak_mb"] < GOAL_PEAK_MB,
-                ),
-                stretch=r["kind"] in STRETCH_KINDS,
-            )
-        )
-        if r["kind"] in STRETCH_KINDS:
-            found.append(
-                _judged(
-                    f"planner, the maze ({r['kind']} {GOAL_SIDE}x{GOAL_SIDE}), {GOAL_AGENTS} agents"
-                    + settings_text(r.get("settings", {}))
-                    + f": complete, none lost, under {GOAL_MAZE_WALL_S:g} s and "
-                    + f"{GOAL_MAZE_M_PER_CELL:g} m per free cell",
-                    r,
-                    lambda r: (
-                        f"{r['wall_s']:.1f} s, {r['path_per_free_cell']:.3f} m per free cell",
-                        r["wall_s"] < GOAL_MAZE_WALL_S
-                        and r["path_per_free_cell"] < GOAL_MAZE_M_PER_CELL,
-                    ),
-                )
-            )
+        found += _planner_goals(r)
     for r in live_rows:
         if r["vehicles"] != GOAL_VEHICLES or r.get("web_clients"):
             continue
@@ -280,6 +250,38 @@ def goals(planner_rows: list[dict[str, Any]], live_rows: list[dict[str, Any]]) -
                 f"{pair['median_p99_ms_without']:.2f} ms (x{pair['ratio']:.3f}) over "
                 f"{pair['runs']} run(s) each, {pair['web_dropped']} clients dropped",
                 pair["ratio"] <= GOAL_WEB_RATIO and pair["web_dropped"] == 0,
+            )
+        )
+    return found
+
+
+def _planner_goals(r: dict[str, Any]) -> list[Goal]:
+    """A planner case's goal, and the maze's own for the stretch kinds."""
+    size, settings = f"{GOAL_SIDE}x{GOAL_SIDE}", settings_text(r.get("settings", {}))
+    found = [
+        _judged(
+            f"planner, {r['kind']} {size}, {GOAL_AGENTS} agents{settings}: complete, none "
+            f"lost, under {GOAL_WALL_S:g} s and {GOAL_PEAK_MB} MB",
+            r,
+            lambda r: (
+                f"{r['wall_s']:.1f} s, {r['peak_mb']} MB",
+                r["wall_s"] < GOAL_WALL_S and r["peak_mb"] < GOAL_PEAK_MB,
+            ),
+            stretch=r["kind"] in STRETCH_KINDS,
+        )
+    ]
+    if r["kind"] in STRETCH_KINDS:
+        found.append(
+            _judged(
+                f"planner, the maze ({r['kind']} {size}), {GOAL_AGENTS} agents{settings}: "
+                f"complete, none lost, under {GOAL_MAZE_WALL_S:g} s and "
+                f"{GOAL_MAZE_M_PER_CELL:g} m per free cell",
+                r,
+                lambda r: (
+                    f"{r['wall_s']:.1f} s, {r['path_per_free_cell']:.3f} m per free cell",
+                    r["wall_s"] < GOAL_MAZE_WALL_S
+                    and r["path_per_free_cell"] < GOAL_MAZE_M_PER_CELL,
+                ),
             )
         )
     return found
