@@ -448,8 +448,8 @@ class McapMissionLog:
     def _write_steps(self) -> None:
         """The gathered steps as one ``/fleet/states`` message (columns; orjson encodes
         the cells straight from their array); each vehicle's track through them, and its
-        pose, fix and ``/vehicle/N/battery`` state at the last one (for Foxglove's panels;
-        a reader takes the states from ``/fleet/states``)."""
+        pose, fix and ``/vehicle/N/battery`` state at the last one, where they changed
+        (for Foxglove's panels; a reader takes the states from ``/fleet/states``)."""
         steps, self._steps = self._steps, []
         if not steps:
             return
@@ -530,10 +530,10 @@ class McapMissionLog:
         self, vehicles: Sequence[_Vehicle], cells: Sequence[Sequence[Cell]], grid: np.ndarray
     ) -> None:
         """Every vehicle's track on through its cells at successive steps (``cells``, each
-        step's; ``grid`` the same as steps by vehicles by row and column). A vehicle that
-        stood still through them all on the cell it was on (most of a crowd held back in
-        a maze) is passed over: found for all at once, as walking each one's cells
-        costs more than the rest."""
+        step's; ``grid`` the same as steps by vehicles by row and column). The vehicles
+        that stood still through them all on the cell they were on (most of a crowd held
+        back in a maze) are found for all at once and passed over: walking every
+        vehicle's cells one by one cost more than the rest of the message."""
         if any(v.last_cell is None for v in vehicles):  # the first steps
             moving: Sequence[int] = range(len(vehicles))
         else:
