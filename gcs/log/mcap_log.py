@@ -454,7 +454,8 @@ class McapMissionLog:
         if not steps:
             return
         t_s, last = steps[-1]
-        grid = np.array([step.cells for _, step in steps], dtype=np.int64)
+        cells = [step.cells for _, step in steps]
+        grid = np.array(cells, dtype=np.int64)
         states = {
             "sysids": [int(sysid) for sysid in last.sysids],
             "t_s": [t for t, _ in steps],
@@ -465,7 +466,7 @@ class McapMissionLog:
         }
         self._json(FLEET_STATES_TOPIC, FLEET_STATES_SCHEMA, t_s, states)
         vehicles = [self._vehicle(sysid) for sysid in last.sysids]
-        self._tracks_through(vehicles, [step.cells for _, step in steps], grid)
+        self._tracks_through(vehicles, cells, grid)
         for k, vehicle in enumerate(vehicles):
             here = (int(last.cells[k][0]), int(last.cells[k][1]))
             self._state_if_changed(t_s, vehicle, (here, last.battery_pct[k], last.modes[k]))
