@@ -162,6 +162,10 @@ class PlannerSpec:
     #: vehicle drawing nearer at this many cells per move (None: the planner's
     #: default, PlannerSettings.rival_pace; 0: shorter missions, longer paths).
     rival_pace: float | None = None
+    #: Leave whole to a vehicle the enclosed part of at most this many cells it
+    #: sweeps beside or heads into (None: the planner's default,
+    #: PlannerSettings.pocket_claims; 0: off, shorter missions, longer paths).
+    pocket_claims: int | None = None
     #: When coverage is complete, charge each vehicle to full before it parks (False:
     #: home and park at once; PlannerSettings).
     charge_at_end: bool = False
@@ -266,6 +270,7 @@ _PLANNER_KEYS = (
     "far_transit_recheck",
     "top_up_ratio",
     "rival_pace",
+    "pocket_claims",
     "charge_at_end",
 )
 
@@ -527,6 +532,11 @@ class _Loader:
             raise self.fail(
                 "planner.rival_pace", f"must be a number >= 0 or null, got {_show(pace)}"
             )
+        pockets = section.get("pocket_claims")
+        if pockets is not None and (not _is_int(pockets) or pockets < 0):
+            raise self.fail(
+                "planner.pocket_claims", f"must be an integer >= 0 or null, got {_show(pockets)}"
+            )
         return PlannerSpec(
             reserve_pct=float(reserve),
             charge_pct_per_step=None if rate is None else float(rate),
@@ -538,6 +548,7 @@ class _Loader:
             far_transit_recheck=self.optional_count(section, "far_transit_recheck", "planner"),
             top_up_ratio=None if top_up is None else float(top_up),
             rival_pace=None if pace is None else float(pace),
+            pocket_claims=None if pockets is None else int(pockets),
             charge_at_end=self.flag(section, "charge_at_end", "planner", default.charge_at_end),
         )
 

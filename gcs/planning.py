@@ -27,6 +27,8 @@ def planner_settings(mission: Mission, seed: int = 0, **strategy: object) -> Pla
         settings["top_up_ratio"] = spec.top_up_ratio
     if spec.rival_pace is not None:
         settings["rival_pace"] = spec.rival_pace
+    if spec.pocket_claims is not None:
+        settings["pocket_claims"] = spec.pocket_claims
     return PlannerSettings(**(settings | strategy))  # type: ignore[arg-type]
 
 

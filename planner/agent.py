@@ -149,6 +149,8 @@ class AgentRecord:
 
     @mode.setter
     def mode(self, mode: AgentMode) -> None:
+        if (mode == EXPLORING) != (self._mode == EXPLORING):
+            self.team.sweeping[self.slot] = mode == EXPLORING
         self._mode = mode
         working = mode in WORKING
         if working != self._working:  # a write to the array costs more than the test

@@ -46,6 +46,7 @@ COMPILED = (
     "planner.traffic",
     "planner.give_way",
     "planner.sweep",
+    "planner.pockets",
     "planner.targets",
     "planner.known_map",
     "planner.coordinator",

@@ -123,6 +123,11 @@ class PlannerSettings:
     #: agents sweep in or head for to them, unless nothing else is left
     #: (``planner.regions``). 0: off.
     region_claims: int = 0
+    #: Leave whole to another agent the pocket it sweeps beside or chases a target
+    #: in: a connected part of at most N cells not known to be covered, enclosed
+    #: by walls and covered cells; wait when nothing else is left
+    #: (``planner.pockets``). 0: off.
+    pocket_claims: int = 0
     #: Longest pause, in decisions, before a held-back agent searches again
     #: (0: search at every decision). Each search of a held agent in a crowd is
     #: a search of the known map that ends held again: with ``rival_pace`` many
@@ -184,5 +189,7 @@ class PlannerSettings:
             raise ValueError("rival_pace must not be negative")
         if self.region_claims < 0:
             raise ValueError("region_claims must not be negative")
+        if self.pocket_claims < 0:
+            raise ValueError("pocket_claims must not be negative")
         if self.launch_interval < 0:
             raise ValueError("launch_interval must not be negative")

@@ -28,12 +28,13 @@ from planner.agent import (
     PlannerEvent,
 )
 from planner.belief import MapBelief
+from planner.pockets import PocketClaims
 from planner.prm import Roadmap
 from planner.regions import RegionClaims
 from planner.settings import BtpChoice, PlannerSettings, TargetPolicy
 from planner.staying_alive import EPS as _EPS
 from planner.staying_alive import StayingAlive
-from planner.target_search import Energy, Hint, SearchRequest, TargetSearch
+from planner.target_search import Energy, Found, Hint, SearchRequest, TargetSearch
 from planner.team import Team
 from planner.traffic import Traffic
 
@@ -103,6 +104,10 @@ class Targets:
         #: With ``region_claims``: the other agents' regions, left to them first.
         size = settings.region_claims
         self._regions = RegionClaims(belief, traffic.fleet, size) if size else None
+        #: With ``pocket_claims``: the pockets other agents sweep beside or chase a
+        #: target in, left to them.
+        limit = settings.pocket_claims
+        self._pockets = PocketClaims(belief, self._team, limit) if limit else None
         self._claims = traffic.claims
         self._events = events
         self._tiers = _TIERS[settings.target_policy]
@@ -262,6 +267,17 @@ class Targets:
 
     # -- the ranked search (the call the target search's rework changes) ----------
 
+    def _run(self, a: AgentRecord, request: SearchRequest) -> tuple[Found | None, bool]:
+        """The search's answer with the other agents' pockets excluded
+        (``pocket_claims``), and whether there were any."""
+        pockets = self._pockets
+        if pockets is not None and request.pool is None:
+            cells = pockets.held_by_others(a, self._claims)
+            if cells.size:
+                excluded = np.concatenate((np.asarray(request.excluded, dtype=np.int64), cells))
+                return self._search.run(request._replace(excluded=excluded), a.search_memory), True
+        return self._search.run(request, a.search_memory), False
+
     def _move_cost(self, a: AgentRecord) -> float:
         return self._alive.move_cost(a)
 
@@ -295,7 +311,9 @@ class Targets:
 
         With ``regions``, the cells of the regions other agents own are left to
         them first (the agent was heading for ``previous``); only when no other
-        candidate is affordable are they searched too.
+        candidate is affordable are they searched too. With ``pockets``, the
+        other agents' pockets are left to them: no target outside them is
+        ``HELD`` (``planner.pockets``).
         """
         spread = self.settings.spread
         hold = self.settings.hold_radius if spread else 0
@@ -307,17 +325,20 @@ class Targets:
         heading = hint if pool is None else None
         claimed = list(self._claims)
         found = None
+        in_pockets = False  # some candidates were left in other agents' pockets
         if self._regions is not None:
             held = self._regions.held_by_others(a, self._claims, previous)
             if held.size:
                 excluded = np.concatenate((np.array(claimed, dtype=np.int64), held))
                 ask = SearchRequest(a.index, energy, others, hold, excluded, pool, heading, pace)
-                found = self._search.run(ask, a.search_memory)
+                found, in_pockets = self._run(a, ask)
         if found is None:
             request = SearchRequest(a.index, energy, others, hold, claimed, pool, heading, pace)
-            found = self._search.run(request, a.search_memory)
+            found, also_in_pockets = self._run(a, request)
+            in_pockets = in_pockets or also_in_pockets
         if found is None:
-            return None
+            # What is left lies in the others' pockets: theirs to sweep, wait.
+            return HELD if in_pockets else None
         level, goal, path = found
         if hold and level == _Rank.CONTESTED:
             return HELD

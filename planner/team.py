@@ -14,6 +14,8 @@ class Team:
         self.rows = np.full(size, at[0], dtype=np.int64)
         self.cols = np.full(size, at[1], dtype=np.int64)
         self.working = np.ones(size, dtype=np.bool_)
+        #: Sweeping (``EXPLORING``): the agents whose pockets are theirs (``planner.pockets``).
+        self.sweeping = np.ones(size, dtype=np.bool_)
 
     def others_mask(self, slot: int) -> np.ndarray:
         """The working agents other than ``slot``."""

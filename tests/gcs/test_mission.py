@@ -107,6 +107,14 @@ def test_rival_pace_null_is_the_planners_default(tmp_path: Path, given: str, use
     assert planner_settings(mission).rival_pace == used
 
 
+@pytest.mark.parametrize(
+    ("given", "used"), [("null", PlannerSettings().pocket_claims), ("0", 0), ("32", 32)]
+)
+def test_pocket_claims_null_is_the_planners_default(tmp_path: Path, given: str, used: int) -> None:
+    mission = load_mission(write(tmp_path, f"map: m.txt\nplanner: {{pocket_claims: {given}}}\n"))
+    assert planner_settings(mission).pocket_claims == used
+
+
 def test_gcs_plan_no_top_up_plans_with_the_papers_charging_rule(tmp_path: Path) -> None:
     mission = load_mission(MISSIONS / "scenario3.yaml").with_agents(11)
     papers = simulate(mission, SimOptions(settings=planner_settings(mission, top_up_ratio=0.0)))
@@ -362,6 +370,11 @@ BAD: list[tuple[str, str | None, str]] = [
         "map: m.txt\nplanner: {rival_pace: -0.1}\n",
         None,
         "planner.rival_pace: must be a number >= 0 or null, got -0.1",
+    ),
+    (
+        "map: m.txt\nplanner: {pocket_claims: 1.5}\n",
+        None,
+        "planner.pocket_claims: must be an integer >= 0 or null, got 1.5",
     ),
     (
         "map: m.txt\nplanner: {path_planner: astar}\n",

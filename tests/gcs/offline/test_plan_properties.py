@@ -124,6 +124,7 @@ def test_every_strategy_keeps_the_invariants(
     backoff=st.sampled_from([2, 4, 8]),
     pace=st.sampled_from([0.0, 0.05, 0.2, 1.0]),
     regions=st.sampled_from([0, 8]),
+    pockets=st.sampled_from([0, 4, 64, 1000]),
     headroom=st.sampled_from([None, 0.1, 0.5]),
 )
 def test_the_short_path_variants_keep_the_invariants(
@@ -133,12 +134,13 @@ def test_the_short_path_variants_keep_the_invariants(
     backoff: int,
     pace: float,
     regions: int,
+    pockets: int,
     headroom: float | None,
 ) -> None:
     """The settings that shorten paths (holding back from targets another agent is
     nearer to within a wider radius, or that it would reach first at ``rival_pace``,
-    searching again sooner, region claims): complete, nobody lost, no collision, the
-    battery above the reserve, with and without a battery limit."""
+    searching again sooner, region and pocket claims): complete, nobody lost, no
+    collision, the battery above the reserve, with and without a battery limit."""
     energy = 0.0 if headroom is None else _energy_for(grid, headroom)
     mission = make_mission(grid, agents, energy)
     settings_ = planner_settings(
@@ -147,6 +149,7 @@ def test_the_short_path_variants_keep_the_invariants(
         held_backoff_max=backoff,
         rival_pace=pace,
         region_claims=regions,
+        pocket_claims=pockets,
     )
     run_checked(mission, settings_)
 

@@ -1,6 +1,6 @@
 """Region claims (``PlannerSettings.region_claims``): a crowd divided between the parts
 of the map keeps every property of a plan, and the compiled search plans as the
-reference one does with them."""
+reference one does with them (and with pocket claims, ``planner.pockets``)."""
 
 from __future__ import annotations
 
@@ -33,17 +33,18 @@ def test_region_claims_keep_the_invariants(grid, agents, size, headroom, charge)
     assert result.out_of_range_cells == 0
 
 
-@pytest.mark.parametrize("kind", ["rooms", "caves", "open_field"])
+@pytest.mark.parametrize("kind", ["rooms", "caves", "open_field", "bars"])
 @pytest.mark.parametrize("agents", [3, 12])
-def test_the_reference_search_plans_as_the_compiled_one_with_regions(
-    kind: str, agents: int
+@pytest.mark.parametrize("claims", [{"region_claims": 6}, {"pocket_claims": 64}])
+def test_the_reference_search_plans_as_the_compiled_one_with_claims(
+    kind: str, agents: int, claims: dict[str, int]
 ) -> None:
     """The cells left to others are excluded from both searches alike."""
-    grid = getattr(mapgen, kind)(30, 30, agents)
+    grid = getattr(mapgen, kind)(30, 30, seed=agents)
     energy = 80.0 / (4 * sum(grid.shape))
     digests = []
     for search in (SearchKind.COMPILED, SearchKind.REFERENCE):
-        chosen = PlannerSettings(region_claims=6, search=search)
+        chosen = PlannerSettings(search=search, **claims)
         flight = fly(grid, agents, chosen, energy_per_m_pct=energy)
         assert flight.complete and flight.finished
         digests.append(flight.digest())
