@@ -11,9 +11,9 @@ agent with nothing else left waits (``Targets``). On the paper's bar maps most
 doubled moves were such walks near the end of the mission, several agents
 converging on the last few pockets (docs/performance.md).
 
-Every search fills from each other agent's pocket seeds, at most ``limit``
-cells a fill, in one compiled call (``planner.speed.pocket_fill``) that reads
-the team's arrays.
+Every search of a crowd fills from dozens of seeds, up to ``limit`` cells
+each: one call a search to the compiled fills of ``planner.pocket_fill``, which
+read the team's arrays.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import numpy as np
 
 from planner.agent import AgentRecord
 from planner.belief import MapBelief
-from planner.speed.pocket_fill import pockets_held
+from planner.pocket_fill import pockets_held
 from planner.team import Team
 
 #: Marks of ``seen`` before it is cleared and they start again.

@@ -9,8 +9,8 @@ import pytest
 from core.cells import CellState
 from planner.agent import AgentMode
 from planner.belief import MapBelief
+from planner.pocket_fill import fill_pocket
 from planner.settings import AgentSpec, PlannerSettings
-from planner.speed.pocket_fill import fill_pocket
 from tests.planner.test_coordinator import _cover_all_but, _known, _readings, _walls
 
 #: A corridor one cell wide and 40 long, the charger at its western end.

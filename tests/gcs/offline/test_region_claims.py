@@ -4,6 +4,8 @@ reference one does with them (and with pocket claims, ``planner.pockets``)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -35,16 +37,18 @@ def test_region_claims_keep_the_invariants(grid, agents, size, headroom, charge)
 
 @pytest.mark.parametrize("kind", ["rooms", "caves", "open_field", "bars"])
 @pytest.mark.parametrize("agents", [3, 12])
-@pytest.mark.parametrize("claims", [{"region_claims": 6}, {"pocket_claims": 64}])
+@pytest.mark.parametrize(
+    "claims", [PlannerSettings(region_claims=6), PlannerSettings(pocket_claims=64)]
+)
 def test_the_reference_search_plans_as_the_compiled_one_with_claims(
-    kind: str, agents: int, claims: dict[str, int]
+    kind: str, agents: int, claims: PlannerSettings
 ) -> None:
     """The cells left to others are excluded from both searches alike."""
     grid = getattr(mapgen, kind)(30, 30, seed=agents)
     energy = 80.0 / (4 * sum(grid.shape))
     digests = []
     for search in (SearchKind.COMPILED, SearchKind.REFERENCE):
-        chosen = PlannerSettings(search=search, **claims)
+        chosen = dataclasses.replace(claims, search=search)
         flight = fly(grid, agents, chosen, energy_per_m_pct=energy)
         assert flight.complete and flight.finished
         digests.append(flight.digest())

@@ -1,9 +1,6 @@
 """The fills that find the other agents' pockets (``planner.pockets``), compiled
-with numba.
-
-Every target search of a crowd fills from dozens of seeds, up to
-``pocket_claims`` cells each: too many steps for Python loops, and too many
-calls to make one by one.
+with numba (a module of its own: numba reads its bytecode, so it stays out of
+the mypyc build that ``planner.pockets`` is part of).
 """
 
 from __future__ import annotations
