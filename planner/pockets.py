@@ -33,7 +33,6 @@ class PocketClaims:
     """Which uncovered cells lie in the pockets the other agents own."""
 
     def __init__(self, belief: MapBelief, team: Team, limit: int) -> None:
-        self.belief = belief
         self._team = team
         self.limit = limit
         size = len(belief.state)
