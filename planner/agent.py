@@ -118,6 +118,11 @@ class AgentRecord:
     heading: Direction | None = None
     pending: int | None = None  # reserved target of the move under way
     trailing: int | None = None  # the cell just left, held until the next decision
+    #: The cell left on the last move, as a decision starts (``trailing`` before it is
+    #: released), and how many moves in a row went straight back into the cell
+    #: left the move before: an agent pacing so takes no detour back (``Traffic._blocked``).
+    came_from: int | None = None
+    turned_back: int = 0
     charges: int = 0
     #: Covered a cell since it last charged (``top_up_ratio`` needs it).
     swept: bool = False

@@ -194,7 +194,10 @@ class Traffic:
         ask_now = other.mode == IDLE and a.waited < self.settings.patience
         if not ask_now:
             detour = self._detour(a, goal)
-            if detour is not None:
+            # Two agents crossing in a narrow passage can each walk round the
+            # other into the cell the other just left, back and forth for ever:
+            # one that has turned back twice in a row waits instead.
+            if detour is not None and (a.turned_back < 2 or detour[0] != a.came_from):
                 a.path, a.path_known_at = deque(detour), None
                 return self.move(a, a.path.popleft())
         a.waited += 1

@@ -11,6 +11,8 @@ from planner.agent import AgentMode
 from planner.belief import MapBelief
 from planner.pocket_fill import fill_pocket
 from planner.settings import AgentSpec, PlannerSettings
+from sitl_mock import mapgen
+from tests.planner.flights import fly
 from tests.planner.test_coordinator import _cover_all_but, _known, _readings, _walls
 
 #: A corridor one cell wide and 40 long, the charger at its western end.
@@ -100,3 +102,15 @@ def test_a_pocket_is_the_part_not_known_covered_joined_to_a_cell_within_the_limi
 def test_pocket_claims_must_not_be_negative() -> None:
     with pytest.raises(ValueError, match="pocket_claims"):
         PlannerSettings(pocket_claims=-1)
+
+
+def test_two_agents_crossing_in_a_narrow_passage_do_not_pace_for_ever() -> None:
+    """Found with pocket claims (one map of 2877 bar-map runs): two agents in transit
+    met in a passage one cell wide, each bound past the other, and each walked
+    round the other into the cell the other had just left, back and forth until
+    the iteration limit. An agent that has turned back twice in a row now waits
+    instead of walking round (``Traffic._blocked``)."""
+    grid = mapgen.bars(30, 30, 13, 4, 9, seed=96)
+    settings = PlannerSettings(pocket_claims=128, launch_interval=6)
+    flight = fly(grid, 4, settings, energy_per_m_pct=0.0, max_iterations=2000)
+    assert flight.complete and flight.finished
