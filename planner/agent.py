@@ -181,6 +181,8 @@ class AgentRecord:
         self.swept = False
 
     def stand(self, index: int, cell: Cell) -> None:
+        """Moved to ``index``; counts the moves in a row back into the cell left before."""
+        self.turned_back = self.turned_back + 1 if index == self.came_from else 0
         self.index = index
         self.team.rows[self.slot], self.team.cols[self.slot] = cell
 

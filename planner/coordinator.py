@@ -221,7 +221,6 @@ class Coordinator:
             # that no agent enters it along the same edge in the same step (a swap).
             if a.trailing is not None:
                 traffic.release(a.trailing, a.id)
-            a.turned_back = a.turned_back + 1 if index == a.came_from else 0
             a.trailing = a.index
             a.stand(index, cell)
         traffic.occupy(index, a.id)
@@ -298,10 +297,9 @@ class Coordinator:
         (lost, done, cut off from the known map, charging), the staying alive check,
         a request to make way, going home; else its work (``_work``)."""
         a = self._agents[agent]
-        a.came_from = a.trailing
         if a.trailing is not None:
             self._traffic.release(a.trailing, a.id)
-            a.trailing = None
+        a.came_from, a.trailing = a.trailing, None
         mode = a.mode
         if mode == LOST:
             return WAIT
