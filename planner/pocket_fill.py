@@ -11,7 +11,6 @@ from numba import njit
 from core.cells import CellState
 
 _OBSTACLE = int(CellState.OBSTACLE)
-_FREE = int(CellState.FREE)
 
 
 @njit(cache=True, nogil=True)
@@ -91,7 +90,7 @@ def pockets_held(
     between calls; a seed an earlier fill of the call reached is in the same part
     and is passed over. ``scratch``: ``seen``, a queue and ``held``, each as long
     as the belief's cells."""
-    state, covered, stride = grid
+    stride = grid[2]
     rows, cols, sweeping, me = owners
     mark, count = first_mark, 0
     for seed in goals:
@@ -103,7 +102,7 @@ def pockets_held(
         at = (rows[slot] + 1) * stride + cols[slot] + 1
         for step in steps:
             seed = at + step
-            if state[seed] == _FREE and not covered[seed]:
+            if uncovered[seed]:
                 marks = (first_mark, mark, count)
                 mark, count = _fill_held(seed, limit, grid, uncovered, scratch, marks)
     return count, mark
