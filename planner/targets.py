@@ -67,7 +67,8 @@ class _Held:
 
 
 HELD = _Held()
-_NOBODY = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+_NO_CELLS = np.zeros(0, dtype=np.int64)
+_NOBODY = (_NO_CELLS, _NO_CELLS)
 
 _Found = tuple[int, Sequence[int]] | _Held | None
 
@@ -267,16 +268,20 @@ class Targets:
 
     # -- the ranked search (the call the target search's rework changes) ----------
 
-    def _run(self, a: AgentRecord, request: SearchRequest) -> tuple[Found | None, bool]:
-        """The search's answer with the other agents' pockets excluded
-        (``pocket_claims``), and whether there were any."""
+    def _others_pockets(self, a: AgentRecord, pool: Iterable[int] | None) -> np.ndarray:
+        """The uncovered cells of the other agents' pockets (``pocket_claims``): none
+        when off, or when the search is of a ``pool``."""
         pockets = self._pockets
-        if pockets is not None and request.pool is None:
-            cells = pockets.held_by_others(a, self._claims)
-            if cells.size:
-                excluded = np.concatenate((np.asarray(request.excluded, dtype=np.int64), cells))
-                return self._search.run(request._replace(excluded=excluded), a.search_memory), True
-        return self._search.run(request, a.search_memory), False
+        if pockets is None or pool is not None:
+            return _NO_CELLS
+        return pockets.held_by_others(a, self._claims)
+
+    def _run(self, a: AgentRecord, request: SearchRequest, pockets: np.ndarray) -> Found | None:
+        """The search's answer with the cells of ``pockets`` excluded."""
+        if pockets.size:
+            excluded = np.concatenate((np.asarray(request.excluded, dtype=np.int64), pockets))
+            request = request._replace(excluded=excluded)
+        return self._search.run(request, a.search_memory)
 
     def _move_cost(self, a: AgentRecord) -> float:
         return self._alive.move_cost(a)
@@ -325,20 +330,19 @@ class Targets:
         heading = hint if pool is None else None
         claimed = list(self._claims)
         found = None
-        in_pockets = False  # some candidates were left in other agents' pockets
+        pockets = self._others_pockets(a, pool)  # once: both searches leave them out
         if self._regions is not None:
             held = self._regions.held_by_others(a, self._claims, previous)
             if held.size:
                 excluded = np.concatenate((np.array(claimed, dtype=np.int64), held))
                 ask = SearchRequest(a.index, energy, others, hold, excluded, pool, heading, pace)
-                found, in_pockets = self._run(a, ask)
+                found = self._run(a, ask, pockets)
         if found is None:
             request = SearchRequest(a.index, energy, others, hold, claimed, pool, heading, pace)
-            found, also_in_pockets = self._run(a, request)
-            in_pockets = in_pockets or also_in_pockets
+            found = self._run(a, request, pockets)
         if found is None:
             # What is left lies in the others' pockets: theirs to sweep, wait.
-            return HELD if in_pockets else None
+            return HELD if pockets.size else None
         level, goal, path = found
         if hold and level == _Rank.CONTESTED:
             return HELD
