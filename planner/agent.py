@@ -176,6 +176,19 @@ class AgentRecord:
         self.launch_in -= 1
         return True
 
+    def left_alone_held(self) -> bool:
+        """Held back and idle, and nothing changed for it since its last decision: no
+        cell left to release, no launch to wait for, nobody to make way for or let pass
+        (``Coordinator._still_held`` asks the rest)."""
+        return (
+            self.held_for > 0
+            and self._mode == IDLE
+            and self.trailing is None
+            and self.launch_in <= 0
+            and self.make_way_for is None
+            and self.letting_pass is None
+        )
+
     def begin_charge(self) -> None:
         self.charges += 1
         self.swept = False

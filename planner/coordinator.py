@@ -123,8 +123,12 @@ class Coordinator:
             traffic=traffic,
             alive=alive,
             finders=Finders(self._search, team, self._roadmap),
+            sweep=self._sweep,
             events=events,
         )
+        self._held_shortcut = settings.search_shortcuts.held_wait
+        #: Held waits told by the shortcut (``_still_held``), for the tests.
+        self.quick_held_waits = 0
 
     # -- queries ------------------------------------------------------------
 
@@ -297,6 +301,11 @@ class Coordinator:
         (lost, done, cut off from the known map, charging), the staying alive check,
         a request to make way, going home; else its work (``_work``)."""
         a = self._agents[agent]
+        if self._held_shortcut and a.left_alone_held() and self._still_held(a):
+            a.came_from = None
+            a.held_for -= 1
+            self.quick_held_waits += 1
+            return WAIT
         if a.trailing is not None:
             self._traffic.release(a.trailing, a.id)
         a.came_from, a.trailing = a.trailing, None
@@ -335,6 +344,18 @@ class Coordinator:
             return self._go_home(a)
         return self._work(a)
 
+    def _still_held(self, a: AgentRecord) -> bool:
+        """Would ``decide`` find the held agent left alone as it left it: blocked where
+        it stands, its way home affordable, the mission not homeward? Then its
+        decision is the held wait, told without the rest."""
+        here = a.index
+        return (
+            self.belief.charger_dist[here] != UNREACHED
+            and (here == self.belief.charger_index or self._alive.can_afford(a, 0, here))
+            and not self.homeward
+            and self._sweep.blocked(a)
+        )
+
     def _make_way(self, a: AgentRecord) -> Action | None:
         """Asked to make way, or aside while another passes: what that requires."""
         if a.make_way_for is not None:
@@ -362,7 +383,7 @@ class Coordinator:
     def _work(self, a: AgentRecord) -> Action:
         """Sweep on (Algorithm 1) while the battery allows, else charge; blocked, take
         a target (Algorithm 3); in transit, go on to it unless re-deciding."""
-        if a.mode == TRANSIT and not self._transit_ends(a):
+        if a.mode == TRANSIT and not self._targets.transit_ends(a):
             a.recheck_in -= 1
             assert a.goal is not None
             return self._traffic.follow(a, a.goal)
@@ -377,24 +398,3 @@ class Coordinator:
         # the sweep stops so that it is resumed, and go to charge.
         self._push_btp(a, nxt)
         return self._traffic.go_charge(a)
-
-    def _transit_ends(self, a: AgentRecord) -> bool:
-        """In transit: is the target reached or swept, or (``replan_transit``) is it
-        time to decide again? Then the agent drops its claim and explores."""
-        goal = a.goal
-        assert goal is not None
-        # Re-deciding needs consistent shortest paths: with the roadmap a
-        # fresh path from one step on can be longer than the rest of the
-        # old one, and the agent would turn back before every arrival.
-        replan = self.settings.replan_transit and self._roadmap is None
-        if not (
-            a.index == goal
-            or not self.belief.uncovered_mask[goal]
-            # An uncovered cell beside the way is swept at once.
-            or (replan and (a.recheck_in <= 0 or self._sweep.next_cell(a) is not None))
-        ):
-            return False
-        a.was_heading_for = goal
-        self._traffic.drop_claim(a)
-        a.mode = EXPLORING
-        return True

@@ -50,6 +50,7 @@ COMPILED = (
     "planner.targets",
     "planner.known_map",
     "planner.coordinator",
+    "planner.turns",
 )
 #: What the build records beside the modules: {module: sha256 of its source}.
 RECORD = "native_build.json"

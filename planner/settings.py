@@ -23,9 +23,9 @@ class SearchKind(StrEnum):
 
 @dataclass(frozen=True)
 class SearchShortcuts:
-    """Which shortcuts the compiled target search takes (``planner.speed.compiled_search``).
-    Each only spares work: the plans are the same without it, which the tests
-    show by switching it off here."""
+    """Which shortcuts the planner takes, most of them in the compiled target search
+    (``planner.speed.compiled_search``). Each only spares work: the plans are the
+    same without it, which the tests show by switching it off here."""
 
     #: The horizon pass over the agent's shortlist (``HorizonMemo``), not every cell.
     shortlist: bool = True
@@ -39,6 +39,9 @@ class SearchShortcuts:
     left_to_others: bool = True
     #: A held agent's distances from its cell kept for its next search (``StillField``).
     still_field: bool = True
+    #: A held agent's wait told without the rest of its decision, when nothing it
+    #: depends on changed (``Coordinator._still_held``).
+    held_wait: bool = True
 
 
 class TargetPolicy(StrEnum):

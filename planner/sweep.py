@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Final
+
 from core.cells import CellState
 from planner.agent import AgentRecord
 from planner.belief import MapBelief
@@ -9,8 +11,8 @@ from planner.settings import BmRule, PlannerSettings
 from planner.speed.bounds import nearest_manhattan
 from planner.team import Team
 
-_FREE = int(CellState.FREE)
-_OBSTACLE = int(CellState.OBSTACLE)
+_FREE: Final = int(CellState.FREE)
+_OBSTACLE: Final = int(CellState.OBSTACLE)
 
 
 class Sweep:
@@ -31,6 +33,23 @@ class Sweep:
         self._paper_sweep = settings.bm_rule in (BmRule.PAPER, BmRule.FORWARD)
         self._forward = settings.bm_rule == BmRule.FORWARD
         self._spread = settings.bm_spread
+
+    def blocked(self, a: AgentRecord) -> bool:
+        """Is there no cell to sweep beside the agent (``next_cell`` would be None)?
+        Asked of every held agent at every decision, so it builds nothing."""
+        state, covered, occupant = self.belief.state, self.belief.covered, self._occupant
+        here = a.index
+        north, south, east, west = self.belief.steps
+        return not (
+            self._open(state, covered, occupant, here + north)
+            or self._open(state, covered, occupant, here + south)
+            or self._open(state, covered, occupant, here + east)
+            or self._open(state, covered, occupant, here + west)
+        )
+
+    @staticmethod
+    def _open(state: bytearray, covered: bytearray, occupant: dict[int, int], v: int) -> bool:
+        return state[v] == _FREE and not covered[v] and v not in occupant
 
     def next_cell(self, a: AgentRecord) -> int | None:
         """The next cell of the boustrophedon motion (Algorithm 1), or None when blocked.

@@ -19,6 +19,7 @@ import numpy as np
 
 from planner import btp
 from planner.agent import (
+    EXPLORING,
     IDLE,
     TRANSIT,
     WAIT,
@@ -34,6 +35,7 @@ from planner.regions import RegionClaims
 from planner.settings import BtpChoice, PlannerSettings, TargetPolicy
 from planner.staying_alive import EPS as _EPS
 from planner.staying_alive import StayingAlive
+from planner.sweep import Sweep
 from planner.target_search import Energy, Found, Hint, SearchRequest, TargetSearch
 from planner.team import Team
 from planner.traffic import Traffic
@@ -94,6 +96,7 @@ class Targets:
         traffic: Traffic,
         alive: StayingAlive,
         finders: Finders,
+        sweep: Sweep,
         events: list[PlannerEvent],
     ) -> None:
         self.belief = belief
@@ -102,6 +105,7 @@ class Targets:
         self._traffic = traffic
         self._alive = alive
         self._search, self._team, self._roadmap = finders
+        self._sweep = sweep
         #: With ``region_claims``: the other agents' regions, left to them first.
         size = settings.region_claims
         self._regions = RegionClaims(belief, traffic.fleet, size) if size else None
@@ -166,6 +170,27 @@ class Targets:
             return self._traffic.go_charge(a)  # what is left needs more battery than it has
         a.mode = IDLE
         return WAIT
+
+    def transit_ends(self, a: AgentRecord) -> bool:
+        """In transit: is the target reached or swept, or (``replan_transit``) is it
+        time to decide again? Then the agent drops its claim and explores."""
+        goal = a.goal
+        assert goal is not None
+        # Re-deciding needs consistent shortest paths: with the roadmap a
+        # fresh path from one step on can be longer than the rest of the
+        # old one, and the agent would turn back before every arrival.
+        replan = self.settings.replan_transit and self._roadmap is None
+        if not (
+            a.index == goal
+            or not self.belief.uncovered_mask[goal]
+            # An uncovered cell beside the way is swept at once.
+            or (replan and (a.recheck_in <= 0 or self._sweep.next_cell(a) is not None))
+        ):
+            return False
+        a.was_heading_for = goal
+        self._traffic.drop_claim(a)
+        a.mode = EXPLORING
+        return True
 
     def _hint(self, a: AgentRecord, previous: int | None, old_path: deque[int]) -> Hint | None:
         """Still on the way to ``previous``: the search may be skipped when it would

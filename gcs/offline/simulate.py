@@ -21,10 +21,11 @@ from gcs.log.mission_log import FleetStep, MissionLog
 from gcs.mission import Mission
 from gcs.outcome.result import AgentTrace, BtpLog, RunResult
 from gcs.planning import planner_settings, prior_map
-from planner.agent import ActionKind, AgentMode, EventKind, PlannerEvent
+from planner.agent import Action, ActionKind, AgentMode, EventKind, PlannerEvent
 from planner.coordinator import Coordinator
 from planner.settings import AgentSpec, PlannerSettings
 from planner.speed.compiled_search import warm_up
+from planner.turns import decide_until_action
 from sitl_mock.lockstep import Body, LockstepWorld
 
 Progress = Callable[[int, int, int], None]
@@ -172,6 +173,8 @@ class _LockstepRun:
         self.ready_at = dict.fromkeys(ids, 0.0)
         self.t0 = time.perf_counter()
         self.planner_s = 0.0
+        #: The world's share of the current ``_act`` (not the planner's time).
+        self.outside_s = 0.0
         self.coordinator = self._start_planner()
         assert list(self.world.position) == ids and list(self.world.battery) == ids
         self.cell_rows: list[tuple[Cell, ...]] = [(grid.charger,) * len(ids)]
@@ -220,47 +223,73 @@ class _LockstepRun:
         """Every agent whose turn it is decides once, and the world carries it out.
 
         Most agent-steps of a crowd are waits, so the loop does as little as it can
-        for one: the clock is read around the world's work on a move, not around
-        every decision, and the planner's time is the loop's less that."""
-        coordinator, world, ready_at, pace = self.coordinator, self.world, self.ready_at, self.pace
-        decide, mode, dead, step_s = coordinator.decide, coordinator.mode, world.dead, pace.step
-        lowest = self.lowest_battery
-        # Looked up once: the loop below makes three look-ups of enum members per agent-step.
-        move, charge, homing_mode = ActionKind.MOVE, ActionKind.CHARGE, AgentMode.HOMING
-        due, next_tick = now + 1e-9, now + pace.tick_s
-        outside = 0.0
+        for one: in lockstep every agent's turn comes each iteration, and the
+        planner decides the waits of a whole run of agents in one call; the clock
+        is read around the world's work on a move, not around every decision, and
+        the planner's time is the loop's less that."""
+        coordinator, world, ids = self.coordinator, self.world, self.ids
+        self.outside_s = 0.0
         start = time.perf_counter()
+        if not self.options.timed:
+            dead, n = world.dead, len(ids)
+            move = ActionKind.MOVE
+            k = 0
+            while True:
+                k, action = decide_until_action(coordinator, ids, k, dead)
+                if k == n:
+                    break
+                i = ids[k]
+                k += 1
+                if action.kind == move:
+                    self._move(i, action)
+                else:
+                    world.request_charge(i)
+        else:
+            self._act_timed(now)
+        self.planner_s += time.perf_counter() - start - self.outside_s
+
+    def _act_timed(self, now: float) -> None:
+        """``_act`` when each vehicle decides at its own pace: those whose turn it is."""
+        coordinator, world, ready_at, pace = self.coordinator, self.world, self.ready_at, self.pace
+        decide, dead, step_s = coordinator.decide, world.dead, pace.step
+        move, charge = ActionKind.MOVE, ActionKind.CHARGE
+        due, next_tick = now + 1e-9, now + pace.tick_s
         for i in self.ids:
             if ready_at[i] > due or i in dead:
                 continue
-            homing = mode(i) == homing_mode or coordinator.homeward
             action = decide(i)
             kind = action.kind
             if kind == move:
-                to = action.to
-                assert to is not None
-                tick = time.perf_counter()
-                world.move(i, to)
-                if homing:
-                    self.homing_moves[i] += 1
-                else:
-                    self.path_moves[i] += 1
-                self.path_steps.moved(i, coordinator.heading_for(i))
-                sensed = None if i in dead else world.sense(to)
-                battery = world.battery[i]
-                if battery < lowest[i]:  # a battery falls only by a move
-                    lowest[i] = battery
-                outside += time.perf_counter() - tick
-                if sensed is None:
-                    coordinator.mark_lost(i)
-                else:
-                    coordinator.observe(i, to, sensed, battery)
+                self._move(i, action)
             elif kind == charge:
                 world.request_charge(i)
                 ready_at[i] = next_tick
                 continue
             ready_at[i] = max(ready_at[i] + step_s[i], next_tick)
-        self.planner_s += time.perf_counter() - start - outside
+
+    def _move(self, i: int, action: Action) -> None:
+        """The world carries out agent ``i``'s move and the planner hears what it sensed."""
+        coordinator, world = self.coordinator, self.world
+        to = action.to
+        assert to is not None
+        tick = time.perf_counter()
+        world.move(i, to)
+        # Going home when the move was decided so (the mission's end, or a charge).
+        if coordinator.mode(i) == AgentMode.HOMING or coordinator.homeward:
+            self.homing_moves[i] += 1
+        else:
+            self.path_moves[i] += 1
+        self.path_steps.moved(i, coordinator.heading_for(i))
+        dead = i in world.dead
+        sensed = None if dead else world.sense(to)
+        battery = world.battery[i]
+        if battery < self.lowest_battery[i]:  # a battery falls only by a move
+            self.lowest_battery[i] = battery
+        self.outside_s += time.perf_counter() - tick
+        if sensed is None:
+            coordinator.mark_lost(i)
+        else:
+            coordinator.observe(i, to, sensed, battery)
 
     def _end_iteration(self, iteration: int) -> None:
         """Batteries told to the planner; tracks, coverage, events and the log kept."""

@@ -6,13 +6,15 @@ from __future__ import annotations
 
 import hashlib
 import json
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 from core.cells import Cell
-from planner.agent import ActionKind
+from planner.agent import Action, ActionKind
 from planner.coordinator import Coordinator
 from planner.settings import AgentSpec, PlannerSettings
 from planner.target_search import TargetSearch
+from planner.turns import decide_until_action
 from sitl_mock.gridmap import GridMap
 from sitl_mock.lockstep import Body, LockstepWorld
 
@@ -24,6 +26,8 @@ class Flight:
     finished: bool
     #: The coordinator's target search, as the plan left it (its counts, when compiled).
     search: TargetSearch = field(compare=False, repr=False)
+    #: Held waits the coordinator told by its shortcut (``Coordinator._still_held``).
+    quick_held_waits: int = 0
 
     def digest(self) -> str:
         """Equal digests: the same plan, cell for cell."""
@@ -37,9 +41,12 @@ def fly(
     *,
     energy_per_m_pct: float,
     max_iterations: int | None = None,
+    batched: bool = False,
 ) -> Flight:
     """``agents`` identical agents from the charger until the planner has finished
-    (or ``max_iterations``, by default 40 per free cell)."""
+    (or ``max_iterations``, by default 40 per free cell); ``batched``: the waits of
+    an iteration decided together (``planner.turns``), as
+    ``gcs plan`` does."""
     ids = range(1, agents + 1)
     coordinator = Coordinator(
         grid.shape, grid.charger, [AgentSpec(i, energy_per_m_pct) for i in ids], settings
@@ -52,8 +59,7 @@ def fly(
     for _ in range(limit):
         if coordinator.finished:
             break
-        for i in ids:
-            action = coordinator.decide(i)
+        for i, action in _decisions(coordinator, list(ids), batched):
             if action.kind == ActionKind.MOVE and action.to is not None:
                 world.move(i, action.to)
                 coordinator.observe(i, action.to, world.sense(action.to), world.battery[i])
@@ -68,4 +74,23 @@ def fly(
         complete=coordinator.coverage_complete,
         finished=coordinator.finished,
         search=coordinator._search,
+        quick_held_waits=coordinator.quick_held_waits,
     )
+
+
+def _decisions(
+    coordinator: Coordinator, ids: list[int], batched: bool
+) -> Iterator[tuple[int, Action]]:
+    """An iteration's decisions: each agent's in turn, or (``batched``) those that do
+    more than wait. Lazily: each is decided after the one before was carried out."""
+    if not batched:
+        for i in ids:
+            yield i, coordinator.decide(i)
+        return
+    k = 0
+    while True:
+        k, action = decide_until_action(coordinator, ids, k, ())
+        if k == len(ids):
+            return
+        yield ids[k], action
+        k += 1

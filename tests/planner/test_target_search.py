@@ -15,10 +15,12 @@ from sitl_mock import mapgen
 from tests.planner.flights import Flight, fly
 
 
-def _flown(grid, agents: int, **settings: Any) -> Flight:
+def _flown(grid, agents: int, batched: bool = False, **settings: Any) -> Flight:
     """Every agent's track over ``grid``, planned with ``settings``."""
     energy = 80.0 / (4 * (grid.shape[0] + grid.shape[1]))
-    flight = fly(grid, agents, PlannerSettings(**settings), energy_per_m_pct=energy)
+    flight = fly(
+        grid, agents, PlannerSettings(**settings), energy_per_m_pct=energy, batched=batched
+    )
     assert flight.complete and flight.finished
     return flight
 
@@ -108,3 +110,24 @@ def test_plans_are_the_same_without_the_still_field(grid, agents: int) -> None:
     assert plain == with_it
     assert taken.held_still > 0 and searched.held_still == 0
     assert taken.searches < searched.searches
+
+
+@pytest.mark.parametrize(
+    ("grid", "agents"),
+    [ROOMS60_9, pytest.param(mapgen.rooms(80, 80, 2), 20, id="rooms80-20")],
+)
+def test_plans_are_the_same_without_the_held_wait(grid, agents: int) -> None:
+    """Telling a held agent's wait without the rest of its decision changes no move,
+    and it is told so."""
+    with_it = _flown(grid, agents)
+    assert with_it.quick_held_waits > 0
+    plain = _flown(grid, agents, **_without(held_wait=False))
+    assert plain.quick_held_waits == 0
+    assert plain.digest() == with_it.digest()
+
+
+@pytest.mark.parametrize(("grid", "agents"), [OPEN60_12, ROOMS60_9])
+def test_waits_decided_together_plan_as_each_alone(grid, agents: int) -> None:
+    """``planner.turns.decide_until_action``, as the offline run drives a fleet: the
+    same moves as a decision asked of each agent in turn."""
+    assert _tracks_digest(grid, agents, batched=True) == _tracks_digest(grid, agents)
