@@ -222,6 +222,35 @@ def test_bm_takes_north_first_then_south_east_west() -> None:
     assert moves == [n, n, n, e, s, s, e, n]
 
 
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    covered=st.lists(st.booleans(), min_size=64, max_size=64),
+    held=st.lists(st.booleans(), min_size=64, max_size=64),
+)
+def test_blocked_is_the_sweep_finding_no_next_cell(
+    seed: int, covered: list[bool], held: list[bool]
+) -> None:
+    """``Sweep.blocked``, asked of every held agent at each decision, answers as
+    ``next_cell`` does: no free, uncovered cell beside it that no agent holds."""
+    grid = mapgen.open_field(10, 10, seed)
+    prior = np.where(grid.obstacle, int(CellState.OBSTACLE), int(CellState.FREE)).astype(np.int8)
+    coordinator = Coordinator(grid.shape, grid.charger, [AgentSpec(1, 0.0)], prior=prior)
+    sweep, belief = coordinator._sweep, coordinator.belief
+    inner = [(r, c) for r in range(1, 9) for c in range(1, 9)]
+    for cell, cover, hold in zip(inner, covered, held, strict=True):
+        if belief.is_free(cell):
+            if cover:
+                belief.cover(cell, 0)
+            if hold:
+                coordinator._traffic.occupy(belief.index(cell), 2)
+    a = coordinator._agents[1]
+    for cell in inner:
+        if belief.is_free(cell):
+            a.index = belief.index(cell)
+            assert sweep.blocked(a) == (sweep.next_cell(a) is None), cell
+
+
 def test_btp_is_a_side_opening_beside_a_wall() -> None:
     # Moving north at (2, 2): west (2, 1) is free, south-west (3, 1) is a wall.
     grid, readings = sensing("#####\n#...#\n#...#\n##..#\n##C##")
