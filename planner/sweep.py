@@ -70,7 +70,7 @@ class Sweep:
         candidates = []
         for s in steps:
             v = here + s
-            if state[v] == _FREE and not covered[v] and v not in occupant:
+            if self._open(state, covered, occupant, v):
                 candidates.append(v)
         if len(candidates) <= 1 or self._paper_sweep:
             if self._forward and a.heading is not None and len(candidates) > 1:

@@ -274,7 +274,7 @@ class _LockstepRun:
         assert to is not None
         tick = time.perf_counter()
         world.move(i, to)
-        # Going home when the move was decided so (the mission's end, or a charge).
+        # Homing: on the way home at the mission's end (a trip to charge is path).
         if coordinator.mode(i) == AgentMode.HOMING or coordinator.homeward:
             self.homing_moves[i] += 1
         else:
