@@ -42,11 +42,13 @@ def fly(
     energy_per_m_pct: float,
     max_iterations: int | None = None,
     batched: bool = False,
+    balk_every: int = 0,
 ) -> Flight:
     """``agents`` identical agents from the charger until the planner has finished
     (or ``max_iterations``, by default 40 per free cell); ``batched``: the waits of
-    an iteration decided together (``planner.turns``), as
-    ``gcs plan`` does."""
+    an iteration decided together (``planner.turns``), as ``gcs plan`` does;
+    ``balk_every``: every so many moves decided, one does not happen and the agent
+    is seen where it stood, as a live vehicle's move can fail."""
     ids = range(1, agents + 1)
     coordinator = Coordinator(
         grid.shape, grid.charger, [AgentSpec(i, energy_per_m_pct) for i in ids], settings
@@ -56,11 +58,17 @@ def fly(
     for i in ids:
         coordinator.observe(i, grid.charger, world.sense(grid.charger), world.battery[i])
     limit = max_iterations or 40 * grid.free_count + 1000
+    moves = 0
     for _ in range(limit):
         if coordinator.finished:
             break
         for i, action in _decisions(coordinator, list(ids), batched):
             if action.kind == ActionKind.MOVE and action.to is not None:
+                moves += 1
+                if balk_every and moves % balk_every == 0:
+                    here = world.position[i]
+                    coordinator.observe(i, here, world.sense(here), world.battery[i])
+                    continue
                 world.move(i, action.to)
                 coordinator.observe(i, action.to, world.sense(action.to), world.battery[i])
             elif action.kind == ActionKind.CHARGE:

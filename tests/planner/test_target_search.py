@@ -15,11 +15,14 @@ from sitl_mock import mapgen
 from tests.planner.flights import Flight, fly
 
 
-def _flown(grid, agents: int, batched: bool = False, **settings: Any) -> Flight:
-    """Every agent's track over ``grid``, planned with ``settings``."""
+def _flown(
+    grid, agents: int, batched: bool = False, balk_every: int = 0, **settings: Any
+) -> Flight:
+    """Every agent's track over ``grid``, planned with ``settings`` (``fly``'s options)."""
     energy = 80.0 / (4 * (grid.shape[0] + grid.shape[1]))
+    plan = PlannerSettings(**settings)
     flight = fly(
-        grid, agents, PlannerSettings(**settings), energy_per_m_pct=energy, batched=batched
+        grid, agents, plan, energy_per_m_pct=energy, batched=batched, balk_every=balk_every
     )
     assert flight.complete and flight.finished
     return flight
@@ -116,12 +119,14 @@ def test_plans_are_the_same_without_the_still_field(grid, agents: int) -> None:
     ("grid", "agents"),
     [ROOMS60_9, pytest.param(mapgen.rooms(80, 80, 2), 20, id="rooms80-20")],
 )
-def test_plans_are_the_same_without_the_held_wait(grid, agents: int) -> None:
+@pytest.mark.parametrize("balk_every", [0, 5])
+def test_plans_are_the_same_without_the_held_wait(grid, agents: int, balk_every: int) -> None:
     """Telling a held agent's wait without the rest of its decision changes no move,
-    and it is told so."""
-    with_it = _flown(grid, agents)
+    and it is told so; also where some moves fail, as a live vehicle's can (the
+    agent seen where it stood, its reservation released)."""
+    with_it = _flown(grid, agents, balk_every=balk_every)
     assert with_it.quick_held_waits > 0
-    plain = _flown(grid, agents, **_without(held_wait=False))
+    plain = _flown(grid, agents, balk_every=balk_every, **_without(held_wait=False))
     assert plain.quick_held_waits == 0
     assert plain.digest() == with_it.digest()
 
