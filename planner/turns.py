@@ -3,7 +3,7 @@ an iteration, in order, and most of a crowd's decisions are waits."""
 
 from __future__ import annotations
 
-from collections.abc import Container, Sequence
+from collections.abc import Container, Iterator, Sequence
 
 from planner.agent import WAIT, Action, ActionKind
 from planner.coordinator import Coordinator
@@ -25,3 +25,18 @@ def decide_until_action(
                 return start, action
         start += 1
     return n, WAIT
+
+
+def acting(
+    coordinator: Coordinator, agents: Sequence[int], skip: Container[int]
+) -> Iterator[tuple[int, Action]]:
+    """An iteration's turns: the agents of ``agents`` (but those in ``skip``) that do
+    more than wait, with their actions, lazily: each decides after the one before
+    was carried out."""
+    k, n = 0, len(agents)
+    while True:
+        k, action = decide_until_action(coordinator, agents, k, skip)
+        if k == n:
+            return
+        yield agents[k], action
+        k += 1

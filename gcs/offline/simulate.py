@@ -25,7 +25,7 @@ from planner.agent import Action, ActionKind, AgentMode, EventKind, PlannerEvent
 from planner.coordinator import Coordinator
 from planner.settings import AgentSpec, PlannerSettings
 from planner.speed.compiled_search import warm_up
-from planner.turns import decide_until_action
+from planner.turns import acting
 from sitl_mock.lockstep import Body, LockstepWorld
 
 Progress = Callable[[int, int, int], None]
@@ -173,8 +173,6 @@ class _LockstepRun:
         self.ready_at = dict.fromkeys(ids, 0.0)
         self.t0 = time.perf_counter()
         self.planner_s = 0.0
-        #: The world's share of the current ``_act`` (not the planner's time).
-        self.outside_s = 0.0
         self.coordinator = self._start_planner()
         assert list(self.world.position) == ids and list(self.world.battery) == ids
         self.cell_rows: list[tuple[Cell, ...]] = [(grid.charger,) * len(ids)]
@@ -227,48 +225,45 @@ class _LockstepRun:
         planner decides the waits of a whole run of agents in one call; the clock
         is read around the world's work on a move, not around every decision, and
         the planner's time is the loop's less that."""
-        coordinator, world, ids = self.coordinator, self.world, self.ids
-        self.outside_s = 0.0
+        world = self.world
         start = time.perf_counter()
+        outside = 0.0
         if not self.options.timed:
-            dead, n = world.dead, len(ids)
             move = ActionKind.MOVE
-            k = 0
-            while True:
-                k, action = decide_until_action(coordinator, ids, k, dead)
-                if k == n:
-                    break
-                i = ids[k]
-                k += 1
+            for i, action in acting(self.coordinator, self.ids, world.dead):
                 if action.kind == move:
-                    self._move(i, action)
+                    outside += self._move(i, action)
                 else:
                     world.request_charge(i)
         else:
-            self._act_timed(now)
-        self.planner_s += time.perf_counter() - start - self.outside_s
+            outside = self._act_timed(now)
+        self.planner_s += time.perf_counter() - start - outside
 
-    def _act_timed(self, now: float) -> None:
-        """``_act`` when each vehicle decides at its own pace: those whose turn it is."""
+    def _act_timed(self, now: float) -> float:
+        """``_act`` when each vehicle decides at its own pace: those whose turn it is.
+        Returns the seconds spent in the world."""
         coordinator, world, ready_at, pace = self.coordinator, self.world, self.ready_at, self.pace
         decide, dead, step_s = coordinator.decide, world.dead, pace.step
         move, charge = ActionKind.MOVE, ActionKind.CHARGE
         due, next_tick = now + 1e-9, now + pace.tick_s
+        outside = 0.0
         for i in self.ids:
             if ready_at[i] > due or i in dead:
                 continue
             action = decide(i)
             kind = action.kind
             if kind == move:
-                self._move(i, action)
+                outside += self._move(i, action)
             elif kind == charge:
                 world.request_charge(i)
                 ready_at[i] = next_tick
                 continue
             ready_at[i] = max(ready_at[i] + step_s[i], next_tick)
+        return outside
 
-    def _move(self, i: int, action: Action) -> None:
-        """The world carries out agent ``i``'s move and the planner hears what it sensed."""
+    def _move(self, i: int, action: Action) -> float:
+        """The world carries out agent ``i``'s move and the planner hears what it
+        sensed; returns the seconds the world took (not the planner's)."""
         coordinator, world = self.coordinator, self.world
         to = action.to
         assert to is not None
@@ -285,11 +280,12 @@ class _LockstepRun:
         battery = world.battery[i]
         if battery < self.lowest_battery[i]:  # a battery falls only by a move
             self.lowest_battery[i] = battery
-        self.outside_s += time.perf_counter() - tick
+        outside = time.perf_counter() - tick
         if sensed is None:
             coordinator.mark_lost(i)
         else:
             coordinator.observe(i, to, sensed, battery)
+        return outside
 
     def _end_iteration(self, iteration: int) -> None:
         """Batteries told to the planner; tracks, coverage, events and the log kept."""

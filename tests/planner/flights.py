@@ -14,7 +14,7 @@ from planner.agent import Action, ActionKind
 from planner.coordinator import Coordinator
 from planner.settings import AgentSpec, PlannerSettings
 from planner.target_search import TargetSearch
-from planner.turns import decide_until_action
+from planner.turns import acting
 from sitl_mock.gridmap import GridMap
 from sitl_mock.lockstep import Body, LockstepWorld
 
@@ -91,14 +91,8 @@ def _decisions(
 ) -> Iterator[tuple[int, Action]]:
     """An iteration's decisions: each agent's in turn, or (``batched``) those that do
     more than wait. Lazily: each is decided after the one before was carried out."""
-    if not batched:
-        for i in ids:
-            yield i, coordinator.decide(i)
+    if batched:
+        yield from acting(coordinator, ids, ())
         return
-    k = 0
-    while True:
-        k, action = decide_until_action(coordinator, ids, k, ())
-        if k == len(ids):
-            return
-        yield ids[k], action
-        k += 1
+    for i in ids:
+        yield i, coordinator.decide(i)

@@ -133,6 +133,6 @@ def test_plans_are_the_same_without_the_held_wait(grid, agents: int, balk_every:
 
 @pytest.mark.parametrize(("grid", "agents"), [OPEN60_12, ROOMS60_9])
 def test_waits_decided_together_plan_as_each_alone(grid, agents: int) -> None:
-    """``planner.turns.decide_until_action``, as the offline run drives a fleet: the
+    """``planner.turns.acting``, as the offline run drives a fleet: the
     same moves as a decision asked of each agent in turn."""
     assert _tracks_digest(grid, agents, batched=True) == _tracks_digest(grid, agents)
