@@ -28,7 +28,8 @@ from gcs.bench.perf_log import Goal, log_goals, log_pairs, log_table
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.generated_missions import GENERATORS, MAP_SEED, case_mission
-from gcs.log.mcap_log import McapMissionLog
+from gcs.log.log_process import LogProcess
+from gcs.log.mcap_log import LoggedMission
 from gcs.offline.simulate import SimOptions, simulate
 from gcs.options.bench import PERF_LINKS
 from gcs.planning import planner_settings
@@ -95,7 +96,7 @@ def _run_case(case: PlannerCase, out: Connection, folder: Path) -> None:
     log = None
     if case.log:
         free = mission.reachable_cells
-        log = McapMissionLog.for_mission(mission, folder / LOG_FILE, free_cells=free)
+        log = LogProcess(folder / LOG_FILE, LoggedMission.of(mission, free))
     started = time.perf_counter()
     result = simulate(mission, SimOptions(settings=settings), progress=report, log=log)
     run_s = time.perf_counter() - started  # with the log's last writes and its close
@@ -112,6 +113,8 @@ def _run_case(case: PlannerCase, out: Connection, folder: Path) -> None:
             "planner_s": round(result.planner_s, 2),
             "us_per_agent_step": round(1e6 * result.planner_s / steps, 1),
             "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss // 1024,
+            # The log's writer: a process of its own, ended by the log's close.
+            **(_writer_figures() if case.log else {}),
             "coverage_pct": round(result.coverage_pct, 2),
             "lost": result.lost_agents,
             "total_path_m": result.total_path_m,
@@ -121,6 +124,15 @@ def _run_case(case: PlannerCase, out: Connection, folder: Path) -> None:
         }
     )
     out.close()
+
+
+def _writer_figures() -> dict[str, float]:
+    """The log writer's peak memory and processor time (the case's only child)."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return {
+        "log_peak_mb": usage.ru_maxrss // 1024,
+        "log_cpu_s": round(usage.ru_utime + usage.ru_stime, 2),
+    }
 
 
 #: The map side and fleet of the runs that compile the planner before the cases.
@@ -144,7 +156,9 @@ def run_planner_case(case: PlannerCase, limit_s: float) -> dict[str, Any]:
     context = multiprocessing.get_context("fork")
     receive, send = context.Pipe(duplex=False)
     folder = tempfile.TemporaryDirectory(prefix="gcs-perf-")
-    child = context.Process(target=_run_case, args=(case, send, Path(folder.name)), daemon=True)
+    # Not a daemon: a logged case starts its log's writer (``gcs plan --out`` does); it
+    # is ended below whatever happens.
+    child = context.Process(target=_run_case, args=(case, send, Path(folder.name)), daemon=False)
     child.start()
     send.close()
     deadline = time.perf_counter() + limit_s

@@ -41,6 +41,8 @@ def log_pairs(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "run_s_with": r["run_s"],
                 "ratio": round(r["run_s"] / max(base["run_s"], 1e-9), 3),
                 "log_mb": round(r["log_bytes"] / 1e6, 1),
+                "writer_mb": r.get("log_peak_mb"),
+                "writer_cpu_s": r.get("log_cpu_s"),
                 "same_plan": base["total_path_m"] == r["total_path_m"],
             }
         )
@@ -51,9 +53,13 @@ def _key(row: dict[str, Any]) -> tuple[Any, ...]:
     return row["kind"], row["size"], row["agents"], tuple(sorted(row["settings"].items()))
 
 
+#: The log's writer is a process of its own: its memory and processor time apart.
+COLUMNS = ("map", "agents", "run s", "with log s", "ratio", "log MB", "writer MB", "writer cpu s")
+
+
 def log_table(pairs: list[dict[str, Any]]) -> Table:
     table = Table(title="the mission log's cost (gcs plan --out against gcs plan)")
-    for name in ("map", "agents", "run s", "with log s", "ratio", "log MB", "same plan"):
+    for name in (*COLUMNS, "same plan"):
         table.add_column(name, justify="left" if name == "map" else "right")
     for p in pairs:
         table.add_row(
@@ -63,6 +69,8 @@ def log_table(pairs: list[dict[str, Any]]) -> Table:
             f"{p['run_s_with']:.2f}",
             f"{p['ratio']:.3f}",
             f"{p['log_mb']:.1f}",
+            str(p.get("writer_mb", "-")),
+            str(p.get("writer_cpu_s", "-")),
             "yes" if p["same_plan"] else "NO",
         )
     return table

@@ -13,7 +13,8 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
-from gcs.log.mcap_log import LogSink, McapMissionLog
+from gcs.log.log_process import LogProcess
+from gcs.log.mcap_log import LoggedMission, LogSink, McapMissionLog
 from gcs.log.mission_log import MissionLog
 from gcs.mission import Mission, MissionError, load_mission
 from gcs.offline.simulate import SimOptions, simulate
@@ -66,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
     if reach.out_of_range:
         errors.print(f"[yellow]warning:[/] {reach.message()}")
     settings = planner_settings(mission, args.seed, **strategy_overrides(args))
-    log = open_log(mission, args.out) if args.out else None
+    log = open_plan_log(mission, args.out) if args.out else None
     options = SimOptions(seed=args.seed, settings=settings, timed=args.timed)
     result = simulate_with_progress(mission, options, errors, log)
     if log is not None and log.failure is not None:  # simulate closed it
@@ -103,6 +104,16 @@ def open_log(mission: Mission, out: Path | None, sinks: Sequence[LogSink] = ()) 
             free_cells=mission.reachable_cells,
             sinks=sinks,
         )
+    except OSError as exc:
+        raise UsageError(f"--out: cannot write to {out}: {exc.strerror}") from exc
+
+
+def open_plan_log(mission: Mission, out: Path) -> LogProcess:
+    """The offline run's MCAP log in ``out`` (created), written by a process of its own
+    while the planner plans."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        return LogProcess(out / LOG_NAME, LoggedMission.of(mission, mission.reachable_cells))
     except OSError as exc:
         raise UsageError(f"--out: cannot write to {out}: {exc.strerror}") from exc
 
