@@ -24,7 +24,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import IO, Any
 
@@ -74,6 +74,7 @@ class LogProcess:
         self._close_timeout_s = close_timeout_s
         self._calls: list[tuple[str, tuple[Any, ...]]] = []
         self._closed = False
+        self._fleet_logged = False
         #: Why the file stopped being written, if it did (the writer's words, or ours
         #: when the writer is gone).
         self.failure: str | None = None
@@ -101,6 +102,7 @@ class LogProcess:
         self._call("agent_state", t_s, sysid, cell, battery_pct, mode, fix, readings)
 
     def fleet_step(self, t_s: float, step: FleetStep) -> None:
+        self._fleet_logged = True
         self._call("fleet_step", t_s, step)
 
     def coverage(self, t_s: float, belief: np.ndarray, covered: np.ndarray) -> None:
@@ -118,6 +120,11 @@ class LogProcess:
         self._call("status", t_s, list(vehicles), progress)
 
     def result(self, t_s: float, result: RunResult) -> None:
+        if self._fleet_logged:
+            # The log leaves each agent's steps out of /run/result where /fleet/states
+            # holds them: not sent (on the maze, a pickle of 16 million cells).
+            bare = tuple(replace(a, track=(), battery_pct=()) for a in result.agents)
+            result = replace(result, agents=bare)
         self._call("result", t_s, result)
 
     def close(self) -> None:
