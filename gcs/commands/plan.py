@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import sys
-from collections.abc import Sequence
 from pathlib import Path
 
 from rich.console import Console
@@ -14,7 +13,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_OK, UsageError
 from gcs.log.log_process import LogProcess
-from gcs.log.mcap_log import LoggedMission, LogSink, McapMissionLog
+from gcs.log.mcap_log import LoggedMission
 from gcs.log.mission_log import MissionLog
 from gcs.mission import Mission, MissionError, load_mission
 from gcs.offline.simulate import SimOptions, simulate
@@ -90,22 +89,6 @@ def save_outputs(result: RunResult, out: Path, console: Console, command: str) -
         )
         return
     console.print(f"wrote {out}/report.json, figures and {LOG_NAME}")
-
-
-def open_log(mission: Mission, out: Path | None, sinks: Sequence[LogSink] = ()) -> McapMissionLog:
-    """The MCAP mission log in ``out`` (created; None: no file), ready for ``simulate``,
-    also handed to the ``sinks`` (live views) as it is written."""
-    try:
-        if out is not None:
-            out.mkdir(parents=True, exist_ok=True)
-        return McapMissionLog.for_mission(
-            mission,
-            None if out is None else out / LOG_NAME,
-            free_cells=mission.reachable_cells,
-            sinks=sinks,
-        )
-    except OSError as exc:
-        raise UsageError(f"--out: cannot write to {out}: {exc.strerror}") from exc
 
 
 def open_plan_log(mission: Mission, out: Path) -> LogProcess:

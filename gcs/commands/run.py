@@ -15,11 +15,13 @@ import dataclasses
 import logging
 import signal
 import sys
+from collections.abc import Sequence
+from pathlib import Path
 
 from rich.console import Console
 
 from gcs.commands.keys import load_keys
-from gcs.commands.plan import LOG_NAME, load, open_log, save_outputs
+from gcs.commands.plan import LOG_NAME, load, save_outputs
 from gcs.commands.web_page import start_web, wants_web, web_view
 from gcs.console import output_console
 from gcs.errors import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, UsageError
@@ -320,3 +322,19 @@ def _on_interrupt(loop: asyncio.AbstractEventLoop, abort: asyncio.Event) -> None
     """First Ctrl-C: abort safely. The default handler is back for a second one."""
     abort.set()
     loop.remove_signal_handler(signal.SIGINT)
+
+
+def open_log(mission: Mission, out: Path | None, sinks: Sequence[LogSink] = ()) -> McapMissionLog:
+    """The live mission's MCAP log in ``out`` (created; None: no file), in this process:
+    also handed to the ``sinks`` (live views) as it is written."""
+    try:
+        if out is not None:
+            out.mkdir(parents=True, exist_ok=True)
+        return McapMissionLog.for_mission(
+            mission,
+            None if out is None else out / LOG_NAME,
+            free_cells=mission.reachable_cells,
+            sinks=sinks,
+        )
+    except OSError as exc:
+        raise UsageError(f"--out: cannot write to {out}: {exc.strerror}") from exc
