@@ -172,9 +172,9 @@ class LogProcess:
             out = b""
             reason = f"the log's writer did not finish within {self._close_timeout_s:.0f} s"
         word = _read_word(out)
-        if word is not None:
+        if word is not None and word.failure is not None:
             self.failure = word.failure
-        elif self.failure is None:
+        elif reason is not None or word is None:  # calls lost, or no word from it
             self.failure = reason or "the log's writer ended without a word"
         self._closed = True
 
