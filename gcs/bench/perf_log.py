@@ -41,8 +41,8 @@ def log_pairs(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "run_s_with": r["run_s"],
                 "ratio": round(r["run_s"] / max(base["run_s"], 1e-9), 3),
                 "log_mb": round(r["log_bytes"] / 1e6, 1),
-                "writer_mb": r.get("log_peak_mb"),
-                "writer_cpu_s": r.get("log_cpu_s"),
+                "writer_mb": r["log_peak_mb"],
+                "writer_cpu_s": r["log_cpu_s"],
                 "same_plan": base["total_path_m"] == r["total_path_m"],
             }
         )
@@ -69,8 +69,8 @@ def log_table(pairs: list[dict[str, Any]]) -> Table:
             f"{p['run_s_with']:.2f}",
             f"{p['ratio']:.3f}",
             f"{p['log_mb']:.1f}",
-            str(p.get("writer_mb", "-")),
-            str(p.get("writer_cpu_s", "-")),
+            str(p["writer_mb"]),
+            f"{p['writer_cpu_s']:.1f}",
             "yes" if p["same_plan"] else "NO",
         )
     return table

@@ -41,6 +41,7 @@ def test_planner_cases_print_and_write_their_figures(tmp_path: Path, capsys) -> 
     assert len(pairs) == 6
     for pair in pairs:
         assert pair["same_plan"] and pair["ratio"] > 0
+        assert pair["writer_mb"] > 0 and pair["writer_cpu_s"] >= 0  # the log's own process
     printed = capsys.readouterr().out
     assert "offline planner" in printed and "machine pace" in printed
     assert "the mission log's cost" in printed
